@@ -1,0 +1,40 @@
+"""The ``simgap`` command line (typer).
+
+Each subpackage registers its own commands in a ``commands.py`` module so that this file
+stays a thin index: ``demo`` (here), ``reproduce`` (evaluation), ``diagnose`` and ``record``
+(diagnosis). Exit status 2 means bad input.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from simgap.diagnosis import commands as diagnosis_commands
+from simgap.evaluation import commands as evaluation_commands
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="simgap: the gap between a simulator and the real system.")
+
+
+@app.command()
+def demo(out: Path = typer.Option(Path("demo-output"), help="Folder for the figures."),
+         seed: int = typer.Option(0, help="Seed of the rollouts.")) -> None:
+    """Run the main job on built-in data and write figures to OUT."""
+    from simgap.demo import run_demo
+
+    run_demo(out, seed=seed)
+
+
+diagnosis_commands.register(app)
+evaluation_commands.register(app)
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()
+
+
+if __name__ == "__main__":
+    main()

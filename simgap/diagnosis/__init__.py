@@ -1,0 +1,1 @@
+"""simgap.diagnosis."""

@@ -1,0 +1,136 @@
+"""The nominal-model protocol: what any env must expose for simgap to work on it.
+
+An env exposes ``env.unwrapped.nominal_model``: an object following :class:`NominalModel`.
+That is all the :class:`~simgap.wrappers.IdentifierWrapper` and the diagnosis need, so a
+user's own env works as soon as it provides one. The contract, in words:
+
+* ``state_names`` / ``state_units``: names and SI units of the identifier state x (n entries).
+* ``input_names`` / ``input_units``: names and SI units of the input u (m entries).
+* ``dt``: the env's step period in seconds.
+* ``state(obs)``: maps an observation to the identifier state x (e.g. joint velocities to
+  momenta for the manipulator). Must accept a 1-D observation.
+* ``f(x, u)``: the nominal state derivative dx/dt = f(x, u), in state units per second.
+
+Optional, with defaults in :class:`BaseNominalModel`:
+
+* ``input(action)``: maps an env action to the input u (default: identity).
+* ``residual_names`` / ``residual_units`` / ``physical_residual(x, g)``: express a state
+  residual g (state units per second) as physical quantities, e.g. joint torques (N·m) or
+  axle lateral forces (N). Default: g itself, named ``g_<state>``.
+
+Example: a 1-DOF pendulum (mass 1 kg, length 1 m) that a user wraps::
+
+    class PendulumNominal(BaseNominalModel):
+        state_names = ("theta", "omega")
+        state_units = ("rad", "rad/s")
+        input_names = ("torque",)
+        input_units = ("N·m",)
+        dt = 0.01
+
+        def f(self, x, u):
+            return np.array([x[1], -9.81 * np.sin(x[0]) + u[0]])
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class NominalModel(Protocol):
+    """Structural protocol for nominal models (see the module docstring)."""
+
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]
+    input_names: tuple[str, ...]
+    input_units: tuple[str, ...]
+    dt: float
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Map an observation to the identifier state x."""
+        ...
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Nominal state derivative dx/dt = f(x, u)."""
+        ...
+
+
+class BaseNominalModel:
+    """Convenience base class giving the optional parts of the protocol their defaults.
+
+    Subclasses set ``state_names``, ``state_units``, ``input_names``, ``input_units``,
+    ``dt`` and implement :meth:`f`.
+    """
+
+    name: str = "custom"
+    state_names: tuple[str, ...] = ()
+    state_units: tuple[str, ...] = ()
+    input_names: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+    dt: float = 0.01
+
+    @property
+    def n_states(self) -> int:
+        """Number of identifier states n."""
+        return len(self.state_names)
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of inputs m."""
+        return len(self.input_names)
+
+    @property
+    def residual_names(self) -> tuple[str, ...]:
+        """Names of the physical residual channels (default: one per state)."""
+        return tuple(f"g_{s}" for s in self.state_names)
+
+    @property
+    def residual_units(self) -> tuple[str, ...]:
+        """SI units of the physical residual channels (default: state units per second)."""
+        return tuple(f"({u})/s" for u in self.state_units)
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Map an observation to the identifier state x (default: identity)."""
+        return np.asarray(obs, dtype=np.float64)
+
+    def input(self, action: np.ndarray) -> np.ndarray:
+        """Map an env action to the model input u (default: identity)."""
+        return np.asarray(action, dtype=np.float64)
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Nominal state derivative dx/dt = f(x, u); subclasses implement it."""
+        raise NotImplementedError
+
+    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Express a state residual g as physical channels (default: g itself)."""
+        return np.asarray(g, dtype=np.float64)
+
+
+class MechanicalNominalModel(BaseNominalModel):
+    """A nominal model of a mechanical system M(q) ddq + bias(q, dq) = tau.
+
+    Subclasses implement :meth:`M` and :meth:`bias`; inverse dynamics follow, which is how
+    the diagnosis turns a recording into joint-torque residuals (N·m).
+    """
+
+    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802 - the physics name
+        """Mass matrix M(q) (SI: kg·m² for revolute, kg for prismatic joints)."""
+        raise NotImplementedError
+
+    def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Velocity and gravity terms C(q, dq) dq + G(q) (N·m or N)."""
+        raise NotImplementedError
+
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Torque the nominal model needs for the given motion: M(q) ddq + bias(q, dq)."""
+        return self.M(q) @ ddq + self.bias(q, dq)
+
+
+def validate_positive(name: str, value: float, *, allow_zero: bool = False) -> None:
+    """Raise ``ValueError`` unless ``value`` is a finite positive (or non-negative) number."""
+    v = float(value)
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")

@@ -1,0 +1,369 @@
+"""2-DOF planar manipulator in a vertical plane (``spec/models.md``, thesis eq. 2.2-2.3).
+
+Joint angles q = (q1, q2) in rad: q1 from the horizontal x-axis to link 1, q2 relative to
+link 1; gravity along -y. Rigid-body terms M(q), C(q, dq), G(q) are numba kernels over a
+flat link array (see :attr:`ManipulatorParams.array`). Two state forms are used:
+
+* simulation state s = (q1, q2, dq1, dq2) (rad, rad/s): what the env integrates;
+* identifier state x = (q1, q2, p1, p2) with p = M(q) dq (kg·m²/s), thesis eq. 2.3:
+
+      dq/dt = M⁻¹ p,   dp/dt = Cᵀ dq − G + u          (nominal f)
+      g(x, u) = (0, 0, −tau_d)                        (residual)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from numba import njit
+
+from simgap.models.base import MechanicalNominalModel, validate_positive
+from simgap.models.friction import FrictionParams, joint_friction
+from simgap.models.integrators import rk4
+
+#: Layout of :attr:`ManipulatorParams.array`.
+LINK_FIELDS = ("m1", "lc1", "I1", "m2", "lc2", "I2", "l1", "Im1", "Im2", "g")
+STATE_NAMES = ("q1", "q2", "p1", "p2")
+STATE_UNITS = ("rad", "rad", "kg·m²/s", "kg·m²/s")
+OBS_NAMES = ("q1", "q2", "dq1", "dq2")
+OBS_UNITS = ("rad", "rad", "rad/s", "rad/s")
+INPUT_NAMES = ("tau1", "tau2")
+INPUT_UNITS = ("N·m", "N·m")
+RECORDING_COLUMNS = ("t", "q1", "q2", "dq1", "dq2", "tau1", "tau2")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ManipulatorParams:
+    """Physical parameters of the two-link arm (defaults: thesis Table 4.2).
+
+    Attributes:
+        m: link mass, both links (kg).
+        l: link length (m).
+        lc: joint-to-centre-of-mass distance (m).
+        I: link inertia about its centre of mass (kg·m²).
+        Im: motor rotor inertia added to each diagonal entry of M (kg·m²).
+        g: gravitational acceleration (m/s²).
+        payload: point mass at the tip of link 2 (kg). Not part of the nominal model; used
+            to build "true" plants that differ from it.
+        extra_inertia: extra inertia on each joint's diagonal of M (kg·m²); likewise 0 in the
+            nominal model.
+    """
+
+    m: float = 2.465
+    l: float = 0.2  # noqa: E741 - the spec's name
+    lc: float = 0.13888
+    I: float = 0.06911  # noqa: E741 - the spec's name
+    Im: float = 0.008118
+    g: float = 9.81
+    payload: float = 0.0
+    extra_inertia: tuple[float, float] = field(default=(0.0, 0.0))
+
+    def __post_init__(self) -> None:
+        for name in ("m", "l", "lc", "I"):
+            validate_positive(f"ManipulatorParams.{name}", getattr(self, name))
+        for name in ("Im", "g", "payload"):
+            validate_positive(f"ManipulatorParams.{name}", getattr(self, name), allow_zero=True)
+        if len(self.extra_inertia) != 2:
+            raise ValueError(f"extra_inertia needs two values, got {self.extra_inertia!r}")
+        for v in self.extra_inertia:
+            validate_positive("ManipulatorParams.extra_inertia", v, allow_zero=True)
+
+    @cached_property
+    def array(self) -> np.ndarray:
+        """Link-level kernel array, fields :data:`LINK_FIELDS` (payload folded into link 2)."""
+        m2 = self.m + self.payload
+        lc2 = (self.m * self.lc + self.payload * self.l) / m2
+        i2 = self.I + self.m * (self.lc - lc2) ** 2 + self.payload * (self.l - lc2) ** 2
+        return np.array([self.m, self.lc, self.I, m2, lc2, i2, self.l,
+                         self.Im + self.extra_inertia[0], self.Im + self.extra_inertia[1],
+                         self.g], dtype=np.float64)
+
+
+@dataclass(frozen=True, kw_only=True)
+class JointDisturbance:
+    """Non-friction joint torques a real arm may have: bias and spring (per joint).
+
+    tau = tau0 + k·(q − q0), added to tau_d. Attributes: tau0 (N·m), k (N·m/rad), q0 (rad).
+    """
+
+    tau0: tuple[float, float] = (0.0, 0.0)
+    k: tuple[float, float] = (0.0, 0.0)
+    q0: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("tau0", "k", "q0"):
+            vals = getattr(self, name)
+            if len(vals) != 2 or not np.all(np.isfinite(vals)):
+                raise ValueError(f"JointDisturbance.{name} needs two finite values, got {vals!r}")
+
+    @cached_property
+    def array(self) -> np.ndarray:
+        """Kernel array, shape (2, 3): columns tau0, k, q0."""
+        return np.ascontiguousarray(np.array([self.tau0, self.k, self.q0], dtype=np.float64).T)
+
+
+# --------------------------------------------------------------------------- kernels
+# Scalar helpers carry the physics once; the array-returning kernels and the allocation-free
+# plant derivative (the env's hot path: 80 evaluations per 2 ms step) are built on them.
+@njit(cache=True, inline="always")
+def _mass_entries(q2, la):  # pragma: no cover - compiled
+    m1, lc1, i1, m2, lc2, i2, l1, im1, im2 = la[0], la[1], la[2], la[3], la[4], la[5], la[6], \
+        la[7], la[8]
+    c2 = np.cos(q2)
+    m11 = m1 * lc1**2 + i1 + m2 * (l1**2 + lc2**2 + 2.0 * l1 * lc2 * c2) + i2 + im1
+    m12 = m2 * (lc2**2 + l1 * lc2 * c2) + i2
+    m22 = m2 * lc2**2 + i2 + im2
+    return m11, m12, m22
+
+
+@njit(cache=True, inline="always")
+def _coriolis_entries(q2, dq1, dq2, la):  # pragma: no cover - compiled
+    h = -la[3] * la[6] * la[4] * np.sin(q2)
+    return h * dq2, h * (dq1 + dq2), -h * dq1
+
+
+@njit(cache=True, inline="always")
+def _gravity_entries(q1, q2, la):  # pragma: no cover - compiled
+    m1, lc1, m2, lc2, l1, g = la[0], la[1], la[3], la[4], la[6], la[9]
+    c12 = np.cos(q1 + q2)
+    return (m1 * lc1 + m2 * l1) * g * np.cos(q1) + m2 * lc2 * g * c12, m2 * lc2 * g * c12
+
+
+@njit(cache=True)
+def mass_matrix(q, la):  # pragma: no cover - compiled
+    """Inertia matrix M(q) (kg·m²), spec ``M11, M12, M22``."""
+    m11, m12, m22 = _mass_entries(q[1], la)
+    out = np.empty((2, 2))
+    out[0, 0] = m11
+    out[0, 1] = m12
+    out[1, 0] = m12
+    out[1, 1] = m22
+    return out
+
+
+@njit(cache=True)
+def coriolis_matrix(q, dq, la):  # pragma: no cover - compiled
+    """Coriolis/centrifugal matrix C(q, dq) (kg·m²/s), spec ``C`` with h = −m2·l1·lc2·sin q2."""
+    c11, c12, c21 = _coriolis_entries(q[1], dq[0], dq[1], la)
+    out = np.empty((2, 2))
+    out[0, 0] = c11
+    out[0, 1] = c12
+    out[1, 0] = c21
+    out[1, 1] = 0.0
+    return out
+
+
+@njit(cache=True)
+def gravity_vector(q, la):  # pragma: no cover - compiled
+    """Gravity torques G(q) (N·m), spec ``G1, G2``."""
+    g1, g2 = _gravity_entries(q[0], q[1], la)
+    out = np.empty(2)
+    out[0] = g1
+    out[1] = g2
+    return out
+
+
+@njit(cache=True)
+def potential_energy(q, la):  # pragma: no cover - compiled
+    """Gravitational potential energy V(q) (J); G = ∂V/∂q."""
+    m1, lc1, m2, lc2, l1, g = la[0], la[1], la[3], la[4], la[6], la[9]
+    return (m1 * lc1 + m2 * l1) * g * np.sin(q[0]) + m2 * lc2 * g * np.sin(q[0] + q[1])
+
+
+@njit(cache=True)
+def solve2(a, b):  # pragma: no cover - compiled
+    """Solve the 2×2 system a·x = b by Cramer's rule."""
+    det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    out = np.empty(2)
+    out[0] = (a[1, 1] * b[0] - a[0, 1] * b[1]) / det
+    out[1] = (a[0, 0] * b[1] - a[1, 0] * b[0]) / det
+    return out
+
+
+@njit(cache=True, inline="always")
+def _tau_d_joint(i, qi, dqi, theta):  # pragma: no cover - compiled
+    """Left-out torque at joint i from the plant array (friction row, then bias/spring)."""
+    f = 10 + 5 * i
+    d = 20 + 3 * i
+    return joint_friction(dqi, theta[f], theta[f + 1], theta[f + 2], theta[f + 3],
+                          theta[f + 4]) + theta[d] + theta[d + 1] * (qi - theta[d + 2])
+
+
+@njit(cache=True)
+def tau_d(q, dq, theta):  # pragma: no cover - compiled
+    """Left-out joint torque tau_d(q, dq) (N·m) of the plant array: friction + bias/spring."""
+    out = np.empty(2)
+    out[0] = _tau_d_joint(0, q[0], dq[0], theta)
+    out[1] = _tau_d_joint(1, q[1], dq[1], theta)
+    return out
+
+
+@njit(cache=True)
+def nominal_derivative(x, u, la):  # pragma: no cover - compiled
+    """Nominal f(x, u) of thesis eq. 2.3 in the (q, p) state."""
+    m11, m12, m22 = _mass_entries(x[1], la)
+    det = m11 * m22 - m12 * m12
+    dq1 = (m22 * x[2] - m12 * x[3]) / det
+    dq2 = (m11 * x[3] - m12 * x[2]) / det
+    c11, c12, c21 = _coriolis_entries(x[1], dq1, dq2, la)
+    g1, g2 = _gravity_entries(x[0], x[1], la)
+    out = np.empty(4)
+    out[0] = dq1
+    out[1] = dq2
+    out[2] = c11 * dq1 + c21 * dq2 - g1 + u[0]   # (Cᵀ dq)_1
+    out[3] = c12 * dq1 - g2 + u[1]               # (Cᵀ dq)_2, C22 = 0
+    return out
+
+
+@njit(cache=True, inline="always")
+def _plant_acc(q1, q2, dq1, dq2, u, theta):  # pragma: no cover - compiled
+    m11, m12, m22 = _mass_entries(q2, theta)
+    c11, c12, c21 = _coriolis_entries(q2, dq1, dq2, theta)
+    g1, g2 = _gravity_entries(q1, q2, theta)
+    r1 = u[0] - (c11 * dq1 + c12 * dq2) - g1 - _tau_d_joint(0, q1, dq1, theta)
+    r2 = u[1] - c21 * dq1 - g2 - _tau_d_joint(1, q2, dq2, theta)
+    det = m11 * m22 - m12 * m12
+    return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+
+
+@njit(cache=True)
+def plant_acceleration(s, u, theta):  # pragma: no cover - compiled
+    """True joint acceleration ddq (rad/s²) of the plant from s = (q, dq) and torques u."""
+    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
+    out = np.empty(2)
+    out[0] = a1
+    out[1] = a2
+    return out
+
+
+@njit(cache=True)
+def plant_derivative(s, u, theta):  # pragma: no cover - compiled
+    """True dynamics in the simulation state s = (q, dq): M ddq + C dq + G + tau_d = u.
+
+    ``theta`` is :func:`plant_array`: 10 link parameters, 2×5 friction, 2×3 bias/spring.
+    """
+    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
+    out = np.empty(4)
+    out[0] = s[2]
+    out[1] = s[3]
+    out[2] = a1
+    out[3] = a2
+    return out
+
+
+@njit(cache=False)  # takes a kernel argument: numba cannot cache it
+def plant_step(s, u, theta, dt, n_sub):  # pragma: no cover - compiled
+    """Advance the plant by dt (s) with n_sub RK4 sub-steps (the env's step)."""
+    return rk4(plant_derivative, s, u, theta, dt, n_sub)
+
+
+@njit(cache=True)
+def true_residual(s, u, theta, la_nom):  # pragma: no cover - compiled
+    """True g(x, u) in the nominal model's (q, p) coordinates at simulation state s.
+
+    g = d/dt [q; M_nom(q) dq] − f_nom(x) = (0, 0, C_nom dq + G_nom + M_nom ddq_true − u),
+    which equals (0, 0, −tau_d) when the plant's rigid body is the nominal one.
+    """
+    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
+    m11, m12, m22 = _mass_entries(s[1], la_nom)
+    c11, c12, c21 = _coriolis_entries(s[1], s[2], s[3], la_nom)
+    g1, g2 = _gravity_entries(s[0], s[1], la_nom)
+    out = np.zeros(4)
+    out[2] = c11 * s[2] + c12 * s[3] + g1 + m11 * a1 + m12 * a2 - u[0]
+    out[3] = c21 * s[2] + g2 + m12 * a1 + m22 * a2 - u[1]
+    return out
+
+
+def plant_array(params: ManipulatorParams, friction: FrictionParams | None = None,
+                disturbance: JointDisturbance | None = None) -> np.ndarray:
+    """Flat array for :func:`plant_derivative`: link params, friction, disturbance."""
+    fa = (friction if friction is not None else FrictionParams(fc=0.0, b=0.0)).array
+    da = (disturbance if disturbance is not None else JointDisturbance()).array
+    return np.concatenate([params.array, fa.ravel(), da.ravel()])
+
+
+def state_derivative(x: np.ndarray, u: np.ndarray, params: ManipulatorParams) -> np.ndarray:
+    """Nominal dx/dt = f(x, u) (thesis eq. 2.3) for x = (q, p), u = joint torques (N·m)."""
+    return nominal_derivative(np.asarray(x, dtype=np.float64), np.asarray(u, dtype=np.float64),
+                              params.array)
+
+
+# --------------------------------------------------------------------------- nominal model
+class ManipulatorNominal(MechanicalNominalModel):
+    """Nominal model ``manipulator2dof`` of ``spec/models.md`` (protocol in ``base.py``).
+
+    Identifier state x = (q1, q2, p1, p2); observation (q1, q2, dq1, dq2); input u = joint
+    torques (N·m). The physical residual is the left-out joint torque tau_d = −g[2:] (N·m).
+    """
+
+    name = "manipulator2dof"
+    state_names = STATE_NAMES
+    state_units = STATE_UNITS
+    input_names = INPUT_NAMES
+    input_units = INPUT_UNITS
+    obs_names = OBS_NAMES
+    obs_units = OBS_UNITS
+    recording_columns = RECORDING_COLUMNS
+
+    def __init__(self, params: ManipulatorParams | None = None, dt: float = 0.002) -> None:
+        validate_positive("dt", dt)
+        self.params = params if params is not None else ManipulatorParams()
+        self.dt = float(dt)
+        self._la = self.params.array
+
+    def __repr__(self) -> str:
+        return f"ManipulatorNominal(params={self.params!r}, dt={self.dt})"
+
+    @property
+    def residual_names(self) -> tuple[str, ...]:
+        """Left-out joint torques tau_d at joints 1 and 2."""
+        return ("tau_d1", "tau_d2")
+
+    @property
+    def residual_units(self) -> tuple[str, ...]:
+        """N·m per joint."""
+        return ("N·m", "N·m")
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Observation (q, dq) → identifier state (q, p = M(q) dq)."""
+        obs = np.asarray(obs, dtype=np.float64)
+        out = obs.copy()
+        out[2:] = mass_matrix(obs[:2], self._la) @ obs[2:]
+        return out
+
+    def observation(self, x: np.ndarray) -> np.ndarray:
+        """Identifier state (q, p) → observation (q, dq = M(q)⁻¹ p)."""
+        x = np.asarray(x, dtype=np.float64)
+        out = x.copy()
+        out[2:] = solve2(mass_matrix(x[:2], self._la), x[2:])
+        return out
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Nominal f(x, u), thesis eq. 2.3."""
+        return nominal_derivative(np.asarray(x, dtype=np.float64),
+                                  np.asarray(u, dtype=np.float64), self._la)
+
+    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802
+        """Inertia matrix M(q) (kg·m²)."""
+        return mass_matrix(np.asarray(q, dtype=np.float64), self._la)
+
+    def C(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:  # noqa: N802
+        """Coriolis matrix C(q, dq) (kg·m²/s)."""
+        return coriolis_matrix(np.asarray(q, dtype=np.float64), np.asarray(dq, dtype=np.float64),
+                               self._la)
+
+    def G(self, q: np.ndarray) -> np.ndarray:  # noqa: N802
+        """Gravity torques G(q) (N·m)."""
+        return gravity_vector(np.asarray(q, dtype=np.float64), self._la)
+
+    def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """C(q, dq) dq + G(q) (N·m)."""
+        q = np.asarray(q, dtype=np.float64)
+        dq = np.asarray(dq, dtype=np.float64)
+        return coriolis_matrix(q, dq, self._la) @ dq + gravity_vector(q, self._la)
+
+    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """State residual g (…, 4) → left-out joint torque tau_d = −g[2:] (N·m)."""
+        return -np.asarray(g, dtype=np.float64)[..., 2:]
