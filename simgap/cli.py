@@ -18,6 +18,11 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="simgap: the gap between a simulator and the real system.")
 
 
+@app.callback()
+def _root() -> None:
+    """Keep ``simgap COMMAND`` a command group even while only one command is registered."""
+
+
 @app.command()
 def demo(out: Path = typer.Option(Path("demo-output"), help="Folder for the figures."),
          seed: int = typer.Option(0, help="Seed of the rollouts.")) -> None:

@@ -4,6 +4,7 @@ from simgap.models.base import BaseNominalModel, MechanicalNominalModel, Nominal
 from simgap.models.bicycle import BicycleNominal, BicycleParams
 from simgap.models.friction import FRICTION_MODELS, FrictionParams
 from simgap.models.manipulator import JointDisturbance, ManipulatorNominal, ManipulatorParams
+from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
 from simgap.models.tires import MagicFormulaTire
 
 __all__ = [
@@ -18,4 +19,6 @@ __all__ = [
     "ManipulatorParams",
     "MechanicalNominalModel",
     "NominalModel",
+    "RigidAxisNominal",
+    "RigidAxisParams",
 ]

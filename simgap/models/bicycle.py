@@ -184,6 +184,21 @@ def true_residual(s, u, theta):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True)
+def true_residual_vs(s, u, theta, theta_nom):  # pragma: no cover - compiled
+    """Compute the true g(x, u) against a nominal with other vehicle parameters.
+
+    Like :func:`true_residual`, but the nominal f uses ``theta_nom`` = nominal params array
+    + [vx], for plants whose vehicle parameters differ from the nominal ones.
+    """
+    d = plant_derivative(s, u, theta)
+    f = nominal_derivative(s[:2], u, theta_nom)
+    out = np.empty(2)
+    out[0] = d[0] - f[0]
+    out[1] = d[1] - f[1]
+    return out
+
+
 def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | None = None,
                 relaxation_length: float | tuple[float, float] = 0.0, steering_lag: float = 0.0,
                 lateral_bias: float = 0.0, yaw_bias: float = 0.0) -> np.ndarray:

@@ -4,6 +4,10 @@ Every dynamics kernel used with these integrators has the signature
 ``deriv(x, u, theta) -> dx/dt`` where ``theta`` is a flat float64 parameter array built by
 the model's parameter dataclass. The integrators are numba-compiled and take the kernel as
 an argument (numba specialises them per kernel), so one RK4 serves every model.
+
+They are compiled with ``cache=False``: a specialisation keyed on a dispatcher argument
+cannot be cached reliably (each process appended a new on-disk entry, and loading another
+process's entry raised ``ReferenceError: underlying object has vanished``).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=False)
 def rk4_step(deriv, x, u, theta, h):  # pragma: no cover - compiled
     """One classical Runge-Kutta step of length ``h`` seconds with ``u`` held constant."""
     n = x.shape[0]
@@ -32,7 +36,7 @@ def rk4_step(deriv, x, u, theta, h):  # pragma: no cover - compiled
     return tmp
 
 
-@njit(cache=True)
+@njit(cache=False)
 def rk4(deriv, x, u, theta, dt, n_sub):  # pragma: no cover - compiled
     """Advance ``x`` by ``dt`` seconds with ``n_sub`` RK4 sub-steps (zero-order-hold input)."""
     h = dt / n_sub
@@ -42,7 +46,7 @@ def rk4(deriv, x, u, theta, dt, n_sub):  # pragma: no cover - compiled
     return y
 
 
-@njit(cache=True)
+@njit(cache=False)
 def euler(deriv, x, u, theta, dt, n_sub):  # pragma: no cover - compiled
     """Advance ``x`` by ``dt`` seconds with ``n_sub`` explicit Euler sub-steps."""
     h = dt / n_sub

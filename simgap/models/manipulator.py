@@ -201,6 +201,31 @@ def tau_d(q, dq, theta):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def momentum_state(obs, la):  # pragma: no cover - compiled
+    """Observation (q, dq) → identifier state (q, p = M(q) dq) (thesis eq. 2.3)."""
+    m11, m12, m22 = _mass_entries(obs[1], la)
+    out = np.empty(4)
+    out[0] = obs[0]
+    out[1] = obs[1]
+    out[2] = m11 * obs[2] + m12 * obs[3]
+    out[3] = m12 * obs[2] + m22 * obs[3]
+    return out
+
+
+@njit(cache=True)
+def velocity_state(x, la):  # pragma: no cover - compiled
+    """Identifier state (q, p) → observation (q, dq = M(q)⁻¹ p)."""
+    m11, m12, m22 = _mass_entries(x[1], la)
+    det = m11 * m22 - m12 * m12
+    out = np.empty(4)
+    out[0] = x[0]
+    out[1] = x[1]
+    out[2] = (m22 * x[2] - m12 * x[3]) / det
+    out[3] = (m11 * x[3] - m12 * x[2]) / det
+    return out
+
+
+@njit(cache=True)
 def nominal_derivative(x, u, la):  # pragma: no cover - compiled
     """Nominal f(x, u) of thesis eq. 2.3 in the (q, p) state."""
     m11, m12, m22 = _mass_entries(x[1], la)
@@ -328,17 +353,11 @@ class ManipulatorNominal(MechanicalNominalModel):
 
     def state(self, obs: np.ndarray) -> np.ndarray:
         """Observation (q, dq) → identifier state (q, p = M(q) dq)."""
-        obs = np.asarray(obs, dtype=np.float64)
-        out = obs.copy()
-        out[2:] = mass_matrix(obs[:2], self._la) @ obs[2:]
-        return out
+        return momentum_state(np.asarray(obs, dtype=np.float64), self._la)
 
     def observation(self, x: np.ndarray) -> np.ndarray:
         """Identifier state (q, p) → observation (q, dq = M(q)⁻¹ p)."""
-        x = np.asarray(x, dtype=np.float64)
-        out = x.copy()
-        out[2:] = solve2(mass_matrix(x[:2], self._la), x[2:])
-        return out
+        return velocity_state(np.asarray(x, dtype=np.float64), self._la)
 
     def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Nominal f(x, u), thesis eq. 2.3."""

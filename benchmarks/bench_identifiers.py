@@ -1,0 +1,188 @@
+"""Benchmark the identifiers (issue 3): prints one JSON object.
+
+* per-step time of ``Identifier.step`` called from Python, each kind: 100 runs of
+  ``--steps`` steps on a recorded thesis manipulator trajectory; every call timed with
+  ``perf_counter_ns`` (the timer's own cost is reported and NOT subtracted); statistics
+  mean, p50, p99, p99.9, max in µs. Baseline 2's burst steps (those with an SGD update)
+  are also reported separately, and for the observer laws the mean of the bare numba
+  kernel call (N = 1) on the same transitions, to split dispatch from Python overhead.
+* batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (and the
+  bare kernel call without the Python wrapper); best and median of 5 repeats.
+* wrapped env loop: steps/s of ``IdentifierWrapper(gym.make(id))`` with a fixed action,
+  next to the bare env's steps/s; best and median of 5 repeats.
+
+Targets (issue 3): proposed ≤ 1.2 µs mean, p99.9 ≤ 5 µs; batched ≤ 0.3 µs per
+instance-step; wrapped env ≥ 20,000 steps/s.
+
+Usage: ``python benchmarks/bench_identifiers.py [--runs 100] [--steps 1000]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+
+import gymnasium as gym
+import numpy as np
+from rich.console import Console
+
+import simgap  # noqa: F401 - registers the envs
+from simgap.envs.scenarios import FeedbackLinearizationController
+from simgap.identifiers import KINDS, BatchIdentifier, make_identifier, preset
+from simgap.identifiers import kernels as K
+from simgap.wrappers import IdentifierWrapper
+
+#: Repeats of the throughput measurements; "best" is the least-contended repeat (as
+#: ``timeit`` reports), "median" the typical one on the shared machine.
+REPEATS = 5
+
+
+def record(steps: int):
+    env = gym.make("simgap/ManipulatorFriction-v0").unwrapped
+    model = env.nominal_model
+    ctrl = FeedbackLinearizationController(model, env.reference)
+    obs, _ = env.reset(seed=0)
+    x = np.zeros((steps + 1, 4))
+    u = np.zeros((steps, 2))
+    f = np.zeros((steps, 4))
+    x[0] = model.state(obs)
+    for k in range(steps):
+        a = ctrl(obs, k * env.dt)
+        obs, *_ = env.step(a)
+        u[k] = np.clip(a, env.action_space.low, env.action_space.high)
+        x[k + 1] = model.state(obs)
+        f[k] = model.f(x[k], u[k])
+    return x, u, f
+
+
+def stats(ns: np.ndarray) -> dict[str, float]:
+    us = ns / 1e3
+    return {"mean_us": float(us.mean()), "p50_us": float(np.percentile(us, 50)),
+            "p99_us": float(np.percentile(us, 99)), "p999_us": float(np.percentile(us, 99.9)),
+            "max_us": float(us.max()), "n": int(us.size)}
+
+
+def per_step(kind: str, x, u, f, runs: int) -> dict:
+    steps = u.shape[0]
+    times = np.empty(runs * steps, dtype=np.int64)
+    burst = np.zeros(runs * steps, dtype=bool)
+    clock = time.perf_counter_ns
+    rows = [(x[k], u[k], f[k], x[k + 1]) for k in range(steps)]
+    warm = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
+    for r in rows[:50]:
+        warm.step(*r)
+    i = 0
+    for run in range(runs):
+        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind),
+                                seed=run)
+        step = ident.step
+        for xk, uk, fk, xn in rows:
+            before = ident.n_updates
+            t0 = clock()
+            step(xk, uk, fk, xn)
+            t1 = clock()
+            times[i] = t1 - t0
+            burst[i] = kind == "minibatch" and ident.n_updates != before
+            i += 1
+    out = {"all": stats(times)}
+    if kind != "minibatch":  # the same transitions through the bare kernel call (N = 1)
+        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
+        args = [(ident._theta, ident._out, xk, uk, fk, xn, ident._hp, ident._active)
+                for xk, uk, fk, xn in rows]
+        kern = K.observer_step
+        t0 = time.perf_counter()
+        for a in args:
+            kern(*a)
+        out["bare_kernel_call_mean_us"] = (time.perf_counter() - t0) / len(args) * 1e6
+    if kind == "minibatch":
+        out["burst_steps"] = stats(times[burst])
+        out["non_burst_steps"] = stats(times[~burst])
+    return out
+
+
+def batched(kind: str, n_env: int, reps: int) -> dict:
+    rng = np.random.default_rng(0)
+    cfg = preset("manipulator", kind)
+    ident = BatchIdentifier(kind, n_env, 4, 2, 0.002, config=cfg)
+    x = rng.normal(size=(n_env, 4)) * 0.5
+    u = rng.normal(size=(n_env, 2))
+    f = rng.normal(size=(n_env, 4)) * 0.1
+    xn = x + 0.002 * f
+    ident.step(x, u, f, xn)
+
+    def timed(fn) -> dict[str, float]:
+        per = []
+        for _ in range(REPEATS):
+            t0 = time.perf_counter()
+            for _ in range(reps):
+                fn()
+            per.append((time.perf_counter() - t0) / reps / n_env * 1e6)
+        return {"best_us": min(per), "median_us": float(np.median(per))}
+
+    res = {"n_envs": n_env, "repeats": REPEATS, "calls_per_repeat": reps,
+           "api_us_per_instance_step": timed(lambda: ident.step(x, u, f, xn))}
+    if kind != "minibatch":
+        xf, uf, ff, xnf = (a.reshape(-1) for a in (x, u, f, xn))
+        args = (ident._theta, ident._out, xf, uf, ff, xnf, ident._hp, ident._active)
+        res["kernel_us_per_instance_step"] = timed(lambda: K.observer_step(*args))
+    return res
+
+
+def env_loop(env_id: str, steps: int, wrapped: bool, kind: str = "integral") -> dict:
+    env = gym.make(env_id, max_episode_steps=10**9)
+    if wrapped:
+        env = IdentifierWrapper(env, kind)
+    env.reset(seed=0)
+    a = np.zeros(env.action_space.shape, dtype=env.action_space.dtype)
+    for _ in range(100):
+        env.step(a)
+    rates = []
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            env.step(a)
+        rates.append(steps / (time.perf_counter() - t0))
+    return {"best": max(rates), "median": float(np.median(rates))}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=100)
+    ap.add_argument("--steps", type=int, default=1000)
+    ap.add_argument("--batch", type=int, default=1024)
+    ap.add_argument("--env-steps", type=int, default=5000)
+    args = ap.parse_args()
+    console = Console(stderr=True)
+    with console.status("recording the thesis manipulator trajectory"):
+        x, u, f = record(args.steps)
+    clock = time.perf_counter_ns
+    t = np.array([-(clock() - clock()) for _ in range(100000)])
+    result: dict = {
+        "machine": {"python": platform.python_version(), "processor": platform.processor(),
+                    "load_average_1min": os.getloadavg()[0],
+                    "note": "2 cores shared with other jobs; timings noisy"},
+        "timer_overhead_ns_p50": float(np.percentile(t, 50)),
+        "per_step": {}, "batched": {}, "env_steps_per_s": {},
+        "targets": {"integral_mean_us": 1.2, "integral_p999_us": 5.0,
+                    "batched_us_per_instance_step": 0.3, "wrapped_env_steps_per_s": 20000},
+    }
+    for k in KINDS:
+        with console.status(f"per-step timing: {k} ({args.runs} runs × {args.steps} steps)"):
+            result["per_step"][k] = per_step(k, x, u, f, args.runs)
+        with console.status(f"batched N={args.batch}: {k}"):
+            result["batched"][k] = batched(k, args.batch, 200)
+    for env_id in ("simgap/ManipulatorFriction-v0", "simgap/BicycleTire-v0"):
+        with console.status(f"env loop: {env_id}"):
+            result["env_steps_per_s"][env_id] = {
+                "bare": env_loop(env_id, args.env_steps, False),
+                "wrapped_integral": env_loop(env_id, args.env_steps, True),
+                "wrapped_minibatch": env_loop(env_id, args.env_steps, True, "minibatch")}
+    result["machine"]["load_average_1min_end"] = os.getloadavg()[0]
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()

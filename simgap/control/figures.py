@@ -1,0 +1,114 @@
+"""Matplotlib figures (Agg backend, PNG) of the downstream studies; one function per study."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
+    """Plot learning curves (mean ± std over seeds) of ``train_agent`` runs to a PNG."""
+    plt = _pyplot()
+
+    firsts = [run["episodes"][0]["step"] for run in runs if run["episodes"]]
+    grid = np.linspace(max(firsts) if firsts else 0, total, 40)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for variant, color in (("plain", "tab:gray"), ("residual", "tab:blue")):
+        curves = []
+        for run in runs:
+            if run["variant"] != variant or not run["episodes"]:
+                continue
+            steps = np.array([e["step"] for e in run["episodes"]])
+            rets = np.array([e["r"] for e in run["episodes"]])
+            curves.append(np.interp(grid, steps, rets, left=np.nan))
+        if not curves:
+            continue
+        c = np.array(curves)
+        m, s = np.nanmean(c, 0), np.nanstd(c, 0)
+        label = {"plain": "plain observation", "residual": "ResidualObservation (+ ĝ)"}[variant]
+        ax.plot(grid, m, color=color, label=f"{label}, {len(curves)} seeds")
+        ax.fill_between(grid, m - s, m + s, color=color, alpha=0.2)
+    base = [b for run in runs for b in run["base_returns"]]
+    if base:
+        ax.axhline(float(np.mean(base)), color="k", ls="--", lw=1,
+                   label="base controller alone (eval mean)")
+    ax.set_xlabel("environment steps (-)")
+    ax.set_ylabel("episode return (−100·Σ(r − r_ref)², rad²/s²)")
+    ax.set_title("SAC residual RL, yaw-rate tracking on random-μ roads")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+def compensation_figure(res: dict, path: Path) -> None:
+    """Plot :func:`~simgap.control.experiments.compensation_study` as bars to a PNG."""
+    plt = _pyplot()
+
+    kinds = [k for k in ("instantaneous", "integral", "minibatch") if k in res["bicycle"]]
+    man, bic = res["manipulator_rmse_rad"], res["bicycle"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, title, unit, plain, true, get in (
+            (axes[0], "Manipulator FL + ĝ feed-forward", "joint RMSE (rad)", man["plain"],
+             man["true_residual"], lambda k, m: man[k][m]),
+            (axes[1], "Bicycle yaw-rate inversion + ĝ (μ = 0.5)", "yaw-rate RMSE (rad/s)",
+             bic["plain"]["rmse_rad_s"], bic["true_residual"]["rmse_rad_s"],
+             lambda k, m: bic[k][m]["rmse_rad_s"])):
+        x = np.arange(len(kinds))
+        ax.bar(x - 0.2, [get(k, "frozen") for k in kinds], 0.4, label="frozen network")
+        ax.bar(x + 0.2, [get(k, "online") for k in kinds], 0.4, label="online (from scratch)")
+        ax.axhline(plain, color="k", ls="--", label="no compensation")
+        ax.axhline(true, color="tab:green", ls=":", label="exact residual (bound)")
+        ax.set_ylim(0.0, 1.5 * max(plain, *[get(k, m) for k in kinds
+                                            for m in ("frozen", "online")]))
+        ax.set_xticks(x, kinds)
+        ax.set_xlabel("identifier")
+        ax.set_ylabel(unit)
+        ax.set_title(title)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+def mpc_figure(res: dict, path: Path) -> None:
+    """Plot traces, errors and compute times of ``mpc_study`` to a PNG."""
+    plt = _pyplot()
+
+    variants = res["variants"]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    first = next(iter(variants.values()))["trace"]
+    axes[0].plot(first["t"], first["r_ref"], "k--", label="r_ref")
+    for name, v in variants.items():
+        axes[0].plot(v["trace"]["t"], v["trace"]["r"], label=name)
+        axes[1].plot(v["trace"]["t"], np.subtract(v["trace"]["r"], v["trace"]["r_ref"]),
+                     label=name)
+    axes[0].set(xlabel="time (s)", ylabel="yaw rate r (rad/s)", title="MPC yaw-rate tracking")
+    axes[1].set(xlabel="time (s)", ylabel="r − r_ref (rad/s)", title="tracking error")
+    names = list(variants)
+    x = np.arange(len(names))
+    axes[2].bar(x - 0.2, [variants[n]["rmse_rad_s"] for n in names], 0.4,
+                label="yaw-rate RMSE (rad/s)")
+    ax2 = axes[2].twinx()
+    ax2.bar(x + 0.2, [1e3 * variants[n]["compute_s"]["p50"] for n in names], 0.4,
+            color="tab:orange", label="compute per step, median (ms)")
+    axes[2].set_xticks(x, names, rotation=15, fontsize=8)
+    axes[2].set(ylabel="yaw-rate RMSE (rad/s)", title="error and compute time per step")
+    ax2.set_ylabel("median compute per control step (ms)")
+    h1, l1 = axes[2].get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    axes[2].legend(h1 + h2, l1 + l2, fontsize=8)
+    for ax in axes[:2]:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

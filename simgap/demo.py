@@ -1,0 +1,194 @@
+"""The demo job (``simgap demo`` / ``make demo``): roll out both envs and plot the ground truth.
+
+The demo shows what the envs provide: states, inputs and the true residual g(x, u) (as joint
+friction torques and axle-force deviations) for the thesis' scenarios, plus one rendered frame
+of each env; then it runs the quick variant of ``simgap reproduce --case all`` into
+``<out>/reproduce`` (report.md, results.json, figures). Figures are matplotlib PNGs (Agg).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from rich.console import Console
+
+from simgap.envs.bicycle import BicycleTireEnv
+from simgap.envs.manipulator import ManipulatorFrictionEnv
+from simgap.envs.rollout import Rollout, rollout
+from simgap.envs.scenarios import (
+    FeedbackLinearizationController,
+    QuinticReference,
+    RandomWaypointReference,
+    SteeringProgram,
+    chirp,
+    slalom,
+    step_steer,
+)
+
+#: Seconds of simulated manipulator motion per scenario (two back-and-forth thesis cycles).
+MANIPULATOR_SECONDS = 8.0
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def _plot_manipulator(ro: Rollout, title: str, path: Path) -> Path:
+    fig = Figure(figsize=(10, 8), layout="constrained")
+    axes = fig.subplots(4, 1, sharex=True)
+    t = ro.t + (ro.t[1] - ro.t[0] if len(ro.t) > 1 else 0.0)  # time after each step
+    ref = ro.info["reference"]
+    for j, c in ((0, "tab:blue"), (1, "tab:orange")):
+        axes[0].plot(t, ro.next_obs[:, j], color=c, label=f"q{j + 1}")
+        axes[0].plot(t, ref[:, j], "--", color=c, alpha=0.7, label=f"q{j + 1} reference")
+        axes[1].plot(t, ro.next_obs[:, 2 + j], color=c, label=f"dq{j + 1}")
+        axes[2].plot(ro.t, ro.action[:, j], color=c, label=f"tau{j + 1}")
+        axes[3].plot(ro.t, ro.info["physical_residual_true"][:, j], color=c,
+                     label=f"tau_d{j + 1} = -g[p{j + 1}]")
+    axes[0].set_ylabel("joint angle (rad)")
+    axes[1].set_ylabel("joint speed (rad/s)")
+    axes[2].set_ylabel("applied torque (N·m)")
+    axes[3].set_ylabel("true residual\ntau_d (N·m)")
+    axes[3].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8, ncol=2)
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def _plot_bicycle(ro: Rollout, env: BicycleTireEnv, title: str, path: Path) -> Path:
+    fig = Figure(figsize=(10, 8), layout="constrained")
+    axes = fig.subplots(4, 1, sharex=True)
+    t_next = ro.t + env.dt
+    axes[0].plot(t_next, ro.next_obs[:, 0], label="vy (m/s)")
+    axes[0].plot(t_next, ro.next_obs[:, 1], label="r (rad/s)")
+    axes[0].set_ylabel("state (m/s, rad/s)")
+    ay = env.vx * ro.next_obs[:, 1] + np.gradient(ro.next_obs[:, 0], env.dt)
+    axes[1].plot(t_next, ay, color="tab:green", label="a_y = dvy/dt + vx·r")
+    axes[1].set_ylabel("lateral accel. (m/s²)")
+    axes[2].plot(ro.t, np.degrees(ro.action[:, 0]), label="delta_f")
+    axes[2].plot(ro.t, np.degrees(ro.action[:, 1]), "--", label="delta_r")
+    axes[2].set_ylabel("steering (deg)")
+    res = ro.info["axle_force_residual_true"]
+    axes[3].plot(ro.t, res[:, 0], label="Delta_f")
+    axes[3].plot(ro.t, res[:, 1], label="Delta_r")
+    axes[3].set_ylabel("true residual\naxle force (N)")
+    axes[3].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    fig.suptitle(f"{title} (vx = {env.vx:g} m/s, mu = {env.true_params.mu:g}, Magic Formula "
+                 f"truth vs linear nominal)")
+    return _save(fig, path)
+
+
+def _plot_tire_map(runs: dict[str, tuple[Rollout, BicycleTireEnv]], path: Path) -> Path:
+    """Axle-force residual against the nominal slip angle: the curve the identifiers learn."""
+    fig = Figure(figsize=(10, 4.5), layout="constrained")
+    axes = fig.subplots(1, 2)
+    for name, (ro, env) in runs.items():
+        p = env.nominal_params
+        vy, r = ro.obs[:, 0], ro.obs[:, 1]
+        alpha_f = ro.action[:, 0] - (vy + p.lf * r) / env.vx
+        alpha_r = ro.action[:, 1] - (vy - p.lr * r) / env.vx
+        res = ro.info["axle_force_residual_true"]
+        axes[0].plot(np.degrees(alpha_f), res[:, 0], ".", ms=2, label=name)
+        axes[1].plot(np.degrees(alpha_r), res[:, 1], ".", ms=2, label=name)
+    for ax, axle in zip(axes, ("front", "rear"), strict=True):
+        ax.set_xlabel(f"{axle} slip angle (deg)")
+        ax.set_ylabel(f"Delta_{axle[0]} (N)")
+        ax.set_title(f"{axle} axle: Magic Formula − linear force")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, markerscale=4)
+    fig.suptitle("True tire-force residual over the manoeuvres")
+    return _save(fig, path)
+
+
+def _plot_frames(frames: list[tuple[str, np.ndarray]], path: Path) -> Path:
+    fig = Figure(figsize=(4.2 * len(frames), 4.4), layout="constrained")
+    axes = fig.subplots(1, len(frames))
+    for ax, (name, img) in zip(np.atleast_1d(axes), frames, strict=True):
+        ax.imshow(img)
+        ax.set_title(name)
+        ax.set_axis_off()
+    fig.suptitle("env.render() (render_mode='rgb_array')")
+    return _save(fig, path)
+
+
+def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
+             reproduce: bool = True) -> list[Path]:
+    """Roll out both envs with their scenarios and write PNG figures into ``out``.
+
+    Args:
+        out: output folder (created if missing).
+        seed: seed of the env resets and of the random-waypoint reference.
+        duration_scale: fraction of each scenario to simulate (1 = full; tests use less).
+        reproduce: also run ``simgap reproduce --case all --quick`` into ``out/reproduce``
+            (its report.md and results.json are written there too).
+
+    Returns:
+        Paths of the written PNG files.
+    """
+    console = Console(stderr=True)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    frames: list[tuple[str, np.ndarray]] = []
+
+    manip_cases: list[tuple[str, str, Callable[[], object]]] = [
+        ("manipulator_thesis.png", "Arm, thesis quintic reference (T = 2 s), friction eq. 4.7",
+         QuinticReference),
+        ("manipulator_waypoints.png", f"Arm, random-waypoint reference (seed {seed})",
+         lambda: RandomWaypointReference(seed)),
+    ]
+    if not 0 < duration_scale <= 1:
+        raise ValueError(f"duration_scale must be in (0, 1], got {duration_scale!r}")
+    n_manip = max(2, int(round(duration_scale * MANIPULATOR_SECONDS / 0.002)))
+    for fname, title, make_ref in manip_cases:
+        console.log(f"manipulator: {title} ({n_manip} steps)")
+        env = ManipulatorFrictionEnv(render_mode="rgb_array", reference=make_ref())
+        ctl = FeedbackLinearizationController(env.nominal_model, env.reference)
+        ro = rollout(env, ctl, n_manip, seed=seed, progress=True)
+        written.append(_plot_manipulator(ro, title + f", FL control Kp = {ctl.Kp[0]:g}, "
+                                         f"Kd = {ctl.Kd[0]:g}", out / fname))
+        if not frames:
+            frames.append((f"arm at t = {env.t:.1f} s", env.render()))
+        env.close()
+
+    programs: list[SteeringProgram] = [step_steer(), slalom(), chirp()]
+    runs: dict[str, tuple[Rollout, BicycleTireEnv]] = {}
+    for prog in programs:
+        n = max(2, int(math.ceil(duration_scale * prog.duration / 0.01)))
+        console.log(f"bicycle: {prog.name} ({n} steps)")
+        env = BicycleTireEnv(render_mode="rgb_array")
+        ro = rollout(env, prog.act, n, seed=seed, progress=True)
+        runs[prog.name] = (ro, env)
+        written.append(_plot_bicycle(ro, env, f"Bicycle, {prog.name}",
+                                     out / f"bicycle_{prog.name.replace('-', '_')}.png"))
+        if prog.name == "step-steer":
+            # a frame in the step's hold phase shows saturated (red) vs linear (gray) forces
+            env.reset(seed=seed)
+            for k in range(min(500, n)):
+                env.step(prog(k * env.dt))
+            frames.append((f"car at t = {env.t:.1f} s (step-steer)", env.render()))
+        env.close()
+    written.append(_plot_tire_map(runs, out / "bicycle_tire_residual.png"))
+    written.append(_plot_frames(frames, out / "env_frames.png"))
+    if reproduce:
+        # the quick thesis reproduction (simgap reproduce --case all --quick) into out/reproduce
+        from simgap.evaluation.pipeline import reproduce as run_reproduce
+
+        console.log("reproduce --case all --quick (thesis Tables 4.5/4.6, quick variant)")
+        rep = run_reproduce(out / "reproduce", case="all", quick=True, seed=seed,
+                            log=console.log)
+        written.extend(Path(p) for p in rep["files"] if str(p).endswith(".png"))
+        console.log(f"wrote {out / 'reproduce' / 'report.md'}")
+    for p in written:
+        console.log(f"wrote {p}")
+    return written

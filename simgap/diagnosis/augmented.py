@@ -1,0 +1,331 @@
+"""Step 4 of the diagnosis: the augmented model (nominal + named effects), saved as JSON.
+
+The augmented model is an ordinary nominal-model object (``simgap.models.base``) so that the
+envs, the identifiers and the diagnosis itself accept it:
+
+* :class:`AugmentedManipulator` is a :class:`~simgap.models.manipulator.ManipulatorNominal`
+  (hence a ``MechanicalNominalModel``) whose rigid body carries the payload, extra joint
+  inertia and scaled gravity, and whose left-out torque tau_d(q, dq) holds the friction,
+  bias and spring found. :meth:`~AugmentedManipulator.env_kwargs` gives exactly the
+  arguments of ``ManipulatorFrictionEnv(friction=, disturbance=, true_params=)`` that build
+  an env simulating it.
+* :class:`AugmentedBicycle` is a :class:`~simgap.models.bicycle.BicycleNominal` with scaled
+  mass, yaw inertia and axle stiffnesses, Magic-Formula axles where saturation was found,
+  and the lateral/yaw biases; :meth:`~AugmentedBicycle.env_kwargs` gives the
+  ``BicycleTireEnv`` arguments (mu, tire, steering_lag, lateral_bias, yaw_bias,
+  true_params). Its two-state ``f`` uses the commanded steering; a steering lag needs the
+  road-wheel angle as an extra state and is carried by :meth:`plant_theta` and the env.
+* :class:`AugmentedMechanical` wraps any other mechanical model: M(q) and bias(q, dq) gain
+  the effects' terms.
+
+JSON layout (``save_model`` / ``load_model``)::
+
+    {"schema": 1, "model": "manipulator2dof", "base_params": {...},
+     "effects": [{"effect": "coulomb_friction", "channel": "joint2", "params": {"Fc": 0.26}}],
+     "options": {"coulomb_sigma": [0.001, 0.001]}}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from simgap.models import manipulator as man
+from simgap.models.base import MechanicalNominalModel
+from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative, plant_array
+from simgap.models.friction import FrictionParams
+from simgap.models.tires import MagicFormulaTire, magic_formula
+
+JOINTS = ("joint1", "joint2")
+AXLES = ("front_axle", "rear_axle")
+DEFAULT_SIGMA = 6.67e-4
+
+
+class ModelFileError(ValueError):
+    """An augmented-model JSON file cannot be used."""
+
+
+def _p(effect: Mapping[str, Any]) -> dict[str, float]:
+    return {k: float(v) for k, v in effect.get("params", {}).items()}
+
+
+def manipulator_physics(effects: Sequence[Mapping[str, Any]],
+                        base: man.ManipulatorParams | None = None,
+                        sigma: Sequence[float] | float = DEFAULT_SIGMA
+                        ) -> tuple[man.ManipulatorParams, FrictionParams, man.JointDisturbance]:
+    """Vocabulary effects → (rigid-body params, friction, bias/spring) of the arm.
+
+    Args:
+        effects: dicts with ``effect``, ``channel`` (``joint1``/``joint2`` or None) and
+            ``params`` in the vocabulary's units (Stribeck ``Fs`` is the breakaway torque).
+        base: nominal parameters.
+        sigma: tanh smoothing velocity of Coulomb/Stribeck terms (rad/s), per joint or one.
+
+    Returns:
+        ``ManipulatorParams`` (payload, extra_inertia, g), ``FrictionParams``,
+        ``JointDisturbance``.
+    """
+    p = base or man.ManipulatorParams()
+    fc, b, fs, vs = [0.0, 0.0], [0.0, 0.0], [None, None], [0.05, 0.05]
+    tau0, k, q0 = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
+    payload, extra, g = p.payload, list(p.extra_inertia), p.g
+    for e in effects:
+        name, pr = e["effect"], _p(e)
+        j = JOINTS.index(e["channel"]) if e.get("channel") in JOINTS else None
+        if name == "coulomb_friction":
+            fc[j] = pr["Fc"]
+        elif name == "viscous_friction":
+            b[j] = pr["b"]
+        elif name == "stribeck_friction":
+            fs[j], vs[j] = pr["Fs"], pr["vs"]
+        elif name == "torque_bias":
+            tau0[j] += pr["tau0"]
+        elif name == "spring":
+            k[j], q0[j] = pr["k"], pr.get("q0", 0.0)
+        elif name == "payload_mass":
+            payload = pr["mp"]
+        elif name == "gravity_mismatch":
+            g = p.g * (1.0 + pr["dG"])
+        elif name == "inertia_mismatch":
+            extra[j] = pr["dI"]
+        else:
+            raise ModelFileError(f"effect {name!r} does not apply to manipulator2dof")
+    sig = (float(sigma),) * 2 if np.isscalar(sigma) else tuple(float(s) for s in sigma)
+    fs_full = tuple(fs[i] if fs[i] is not None else fc[i] for i in range(2))
+    friction = FrictionParams(fc=tuple(fc), b=tuple(b), fs=fs_full, vs=tuple(vs), sigma=sig)
+    params = dataclasses.replace(p, g=g, payload=payload, extra_inertia=tuple(extra))
+    return params, friction, man.JointDisturbance(tau0=tuple(tau0), k=tuple(k), q0=tuple(q0))
+
+
+class AugmentedManipulator(man.ManipulatorNominal):
+    """The arm's nominal model plus the named effects (see the module docstring).
+
+    Args:
+        effects: vocabulary effects (dicts as in the report's ``effects``).
+        base: nominal parameters.
+        sigma: Coulomb/Stribeck smoothing velocity per joint (rad/s).
+        dt: step period (s).
+    """
+
+    name = "manipulator2dof+effects"
+
+    def __init__(self, effects: Sequence[Mapping[str, Any]] = (),
+                 base: man.ManipulatorParams | None = None,
+                 sigma: Sequence[float] | float = DEFAULT_SIGMA, dt: float = 0.002) -> None:
+        params, friction, disturbance = manipulator_physics(effects, base, sigma)
+        super().__init__(params, dt=dt)
+        self.base_params = base or man.ManipulatorParams()
+        self.effects = [dict(e) for e in effects]
+        self.sigma = sigma
+        self.friction, self.disturbance = friction, disturbance
+        self.theta = man.plant_array(params, friction, disturbance)
+
+    def tau_d(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Left-out torque of the named friction/bias/spring effects (N·m)."""
+        return man.tau_d(np.asarray(q, dtype=np.float64), np.asarray(dq, dtype=np.float64),
+                         self.theta)
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """dx/dt in (q, p) with p = M_aug(q) dq: eq. 2.3 with u − tau_d(q, dq)."""
+        x = np.asarray(x, dtype=np.float64)
+        dq = self.observation(x)[2:]
+        return man.nominal_derivative(x, np.asarray(u, dtype=np.float64) - self.tau_d(x[:2], dq),
+                                      self._la)
+
+    def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """C dq + G + tau_d (N·m) of the augmented arm."""
+        return super().bias(q, dq) + self.tau_d(q, dq)
+
+    def env_kwargs(self) -> dict[str, Any]:
+        """Arguments of ``ManipulatorFrictionEnv`` whose plant is this model."""
+        return {"friction": self.friction, "disturbance": self.disturbance,
+                "true_params": self.params}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description."""
+        return {"schema": 1, "model": "manipulator2dof",
+                "base_params": {f.name: getattr(self.base_params, f.name)
+                                for f in dataclasses.fields(self.base_params)},
+                "effects": self.effects,
+                "options": {"coulomb_sigma": list(np.broadcast_to(self.sigma, 2).astype(float)),
+                            "dt": self.dt}}
+
+
+def bicycle_physics(effects: Sequence[Mapping[str, Any]], base: BicycleParams | None = None
+                    ) -> dict[str, Any]:
+    """Vocabulary effects → true vehicle parameters and options of the bicycle."""
+    p = base or BicycleParams()
+    kw = {f.name: getattr(p, f.name) for f in dataclasses.fields(p)}
+    out: dict[str, Any] = {"mu": [None, None], "steering_lag": 0.0, "lateral_bias": 0.0,
+                           "yaw_bias": 0.0}
+    for e in effects:
+        name, pr = e["effect"], _p(e)
+        axle = AXLES.index(e["channel"]) if e.get("channel") in AXLES else None
+        if name == "tire_saturation":
+            out["mu"][axle] = pr["mu"]
+        elif name == "cornering_stiffness":
+            key = ("C_af", "C_ar")[axle]
+            kw[key] = kw[key] * pr["ratio"]
+        elif name == "steering_lag":
+            out["steering_lag"] = pr["tau"]
+        elif name == "lateral_bias":
+            out["lateral_bias"] = pr["ay0"]
+        elif name == "yaw_bias":
+            out["yaw_bias"] = pr["dr0"]
+        elif name == "mass_mismatch":
+            kw["m"] = kw["m"] * pr["ratio"]
+        elif name == "yaw_inertia_mismatch":
+            kw["Iz"] = kw["Iz"] * pr["ratio"]
+        else:
+            raise ModelFileError(f"effect {name!r} does not apply to bicycle")
+    mus = [m for m in out["mu"] if m is not None]
+    if mus:
+        kw["mu"] = float(np.mean(mus))
+    out["params"] = BicycleParams(**kw)
+    return out
+
+
+class AugmentedBicycle(BicycleNominal):
+    """The bicycle's nominal model plus the named effects (see the module docstring)."""
+
+    name = "bicycle+effects"
+
+    def __init__(self, effects: Sequence[Mapping[str, Any]] = (),
+                 base: BicycleParams | None = None, vx: float = 20.0, dt: float = 0.01,
+                 tire: MagicFormulaTire | None = None) -> None:
+        phys = bicycle_physics(effects, base)
+        super().__init__(phys["params"], vx=vx, dt=dt)
+        self.base_params = base or BicycleParams()
+        self.effects = [dict(e) for e in effects]
+        self.phys = phys
+        self.tire = tire or MagicFormulaTire()
+
+    def with_speed(self, vx: float) -> AugmentedBicycle:
+        """Return the same augmented model at another speed (m/s)."""
+        return AugmentedBicycle(self.effects, self.base_params, vx=vx, dt=self.dt,
+                                tire=self.tire)
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """dx/dt with per-axle Magic Formula where named, biases added (commanded steering)."""
+        x = np.asarray(x, dtype=np.float64)
+        u = np.asarray(u, dtype=np.float64)
+        p = self.params
+        af = u[0] - (x[0] + p.lf * x[1]) / self.vx
+        ar = u[1] - (x[0] - p.lr * x[1]) / self.vx
+        fzf, fzr = p.axle_loads()
+        forces = []
+        for alpha, ca, fz, mu in ((af, p.C_af, fzf, self.phys["mu"][0]),
+                                  (ar, p.C_ar, fzr, self.phys["mu"][1])):
+            forces.append(ca * alpha if mu is None else
+                          magic_formula(alpha, ca, fz, mu, self.tire.C, self.tire.E))
+        dvy, dr = body_derivative(x[0], x[1], forces[0], forces[1], self.vx, p.array)
+        return np.array([dvy + self.phys["lateral_bias"], dr + self.phys["yaw_bias"]])
+
+    def env_kwargs(self) -> dict[str, Any]:
+        """Arguments of ``BicycleTireEnv`` whose plant is this model.
+
+        The env has one mu for both axles: the mean of the axles' where they differ.
+        """
+        sat = any(m is not None for m in self.phys["mu"])
+        return {"vx": self.vx, "mu": self.params.mu,
+                "tire": "magic_formula" if sat else "linear",
+                "steering_lag": self.phys["steering_lag"],
+                "lateral_bias": self.phys["lateral_bias"], "yaw_bias": self.phys["yaw_bias"],
+                "true_params": self.params}
+
+    def plant_theta(self, vx: float | None = None) -> np.ndarray:
+        """Plant array (:func:`simgap.models.bicycle.plant_array`) incl. the steering lag."""
+        sat = any(m is not None for m in self.phys["mu"])
+        return plant_array(self.params, vx or self.vx, tire=self.tire if sat else None,
+                           steering_lag=self.phys["steering_lag"],
+                           lateral_bias=self.phys["lateral_bias"],
+                           yaw_bias=self.phys["yaw_bias"])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description."""
+        return {"schema": 1, "model": "bicycle",
+                "base_params": {f.name: getattr(self.base_params, f.name)
+                                for f in dataclasses.fields(self.base_params)},
+                "effects": self.effects, "options": {"vx": self.vx, "dt": self.dt}}
+
+
+class AugmentedMechanical(MechanicalNominalModel):
+    """Any mechanical nominal model plus fitted effects: M + A(q), bias + b(q, dq).
+
+    Args:
+        base: the nominal model.
+        system: the prepared :class:`~simgap.diagnosis.systems.MechanicalSystem` (effect
+            context).
+        fitted: (effect, index, lin, nl) tuples from the fit.
+
+    The state is taken to be (q, dq) (2n entries); ``f`` returns (dq, ddq).
+    """
+
+    def __init__(self, base: MechanicalNominalModel, system: Any,
+                 fitted: Sequence[tuple]) -> None:
+        self.base, self.system, self.fitted = base, system, list(fitted)
+        self.name = f"{getattr(base, 'name', 'mechanical')}+effects"
+        for attr in ("state_names", "state_units", "input_names", "input_units", "dt"):
+            setattr(self, attr, getattr(base, attr))
+
+    def _split(self, q, dq):
+        a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq))
+        return a[0], b[0]
+
+    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802
+        """Mass matrix plus the effects' acceleration terms."""
+        q = np.asarray(q, dtype=np.float64)
+        return self.base.M(q) + self._split(q, np.zeros_like(q))[0]
+
+    def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """Bias plus the effects' velocity/position terms."""
+        return self.base.bias(q, dq) + self._split(q, dq)[1]
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """(dq, ddq) for x = (q, dq)."""
+        x = np.asarray(x, dtype=np.float64)
+        n = x.shape[0] // 2
+        q, dq = x[:n], x[n:]
+        ddq = np.linalg.solve(self.M(q), np.asarray(u, dtype=np.float64) - self.bias(q, dq))
+        return np.concatenate([dq, ddq])
+
+
+def save_model(model: AugmentedManipulator | AugmentedBicycle, path: str | os.PathLike) -> Path:
+    """Write the augmented model's JSON (see the module docstring)."""
+    path = Path(path)
+    path.write_text(json.dumps(model.to_dict(), indent=2), encoding="utf-8")
+    return path
+
+
+def model_from_dict(d: Mapping[str, Any]) -> AugmentedManipulator | AugmentedBicycle:
+    """Rebuild an augmented model from its JSON description."""
+    try:
+        kind, effects, opts = d["model"], d.get("effects", []), d.get("options", {})
+        if kind == "manipulator2dof":
+            base = man.ManipulatorParams(**{k: (tuple(v) if isinstance(v, list) else v)
+                                            for k, v in d.get("base_params", {}).items()})
+            return AugmentedManipulator(effects, base, opts.get("coulomb_sigma", DEFAULT_SIGMA),
+                                        dt=opts.get("dt", 0.002))
+        if kind == "bicycle":
+            base = BicycleParams(**d.get("base_params", {}))
+            return AugmentedBicycle(effects, base, vx=opts.get("vx", 20.0),
+                                    dt=opts.get("dt", 0.01))
+    except (KeyError, TypeError) as err:
+        raise ModelFileError(f"augmented model description is incomplete: {err}") from None
+    raise ModelFileError(f"unknown model {d.get('model')!r} in augmented model description")
+
+
+def load_model(path: str | os.PathLike) -> AugmentedManipulator | AugmentedBicycle:
+    """Read an augmented model JSON written by :func:`save_model`."""
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise ModelFileError(f"{path}: cannot read augmented model ({err})") from None
+    return model_from_dict(d)

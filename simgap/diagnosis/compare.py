@@ -1,0 +1,109 @@
+"""Step 5 of the diagnosis: nominal vs augmented on the held-out (later) part of a recording.
+
+Two errors per model, both on the test part only (t ≥ split):
+
+* one-step derivative error: RMS of (model derivative − measured derivative) at the
+  recorded, filtered states and inputs — joint accelerations (rad/s²) for mechanical
+  systems, (dvy/dt, dr/dt) for the bicycle;
+* short-horizon simulation error: the test part is cut into back-to-back windows of
+  ``horizon`` seconds; each window is simulated *open loop* (RK4 at the sampling period)
+  from the recorded (filtered) state at its start with the recorded inputs held over each
+  sample (and the recorded vx for the bicycle); RMS of (simulated − recorded) state over all
+  windows and steps. Closed-loop recordings: the controller is not modelled — its recorded
+  output is replayed — so within a window the model's errors are not corrected by feedback,
+  which is what makes the short horizon a fair test of the dynamics.
+
+``score`` condenses each model's simulation errors into one number: the RMS over states of
+rollout RMSE / state std on the test part.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Comparison:
+    """Errors of the nominal and augmented models on the test part.
+
+    Attributes:
+        split: (t0, t_split, t_end) in s.
+        derivative_rmse: {"nominal": [...], "augmented": [...]} per derivative channel.
+        rollout_rmse: {"nominal": [...], "augmented": [...]} per state.
+        score: {"nominal": x, "augmented": y}, dimensionless.
+        horizon: simulation window (s).
+        example: arrays for the figure: t, recorded, nominal, augmented states over a few
+            consecutive windows.
+    """
+
+    split: tuple[float, float, float]
+    derivative_rmse: dict[str, list[float]]
+    rollout_rmse: dict[str, list[float]]
+    score: dict[str, float]
+    horizon: float
+    example: dict[str, np.ndarray]
+
+
+def _rollouts(system: Any, starts: np.ndarray, steps: int, effects: Sequence[tuple],
+              dt: float) -> np.ndarray:
+    """Simulate windows; return states of shape (steps + 1, n_windows, n_states)."""
+    s = system.state_at(starts)
+    out = [s]
+    for k in range(steps):
+        s = system.step(s, starts + k, effects, dt)
+        if not np.all(np.isfinite(s)):
+            s = np.where(np.isfinite(s), s, np.nan)
+        out.append(s)
+    return np.stack(out)
+
+
+def compare(system: Any, effects: Sequence[tuple], t_split: float,
+            horizon: float | None = None, example_windows: int = 8) -> Comparison:
+    """Compare the nominal and the augmented model on the part after ``t_split``.
+
+    Args:
+        system: the prepared system adapter.
+        effects: fitted effects as (effect, index, lin, nl) tuples.
+        t_split: start of the test part (s).
+        horizon: simulation window (s); default the adapter's ``rollout_horizon``.
+        example_windows: consecutive windows kept for the figure.
+    """
+    t = system.t
+    dt = float(t[1] - t[0])
+    horizon = float(horizon or system.rollout_horizon)
+    edge = system.smoother.window
+    test = np.where(t >= t_split)[0]
+    test = test[(test >= edge) & (test < len(t) - edge)]
+    meas = system.derivative_at(test)
+    der = {}
+    for label, eff in (("nominal", []), ("augmented", effects)):
+        pred = system.predicted_derivative(test, eff)
+        der[label] = [float(v) for v in np.sqrt(np.mean((pred - meas) ** 2, axis=0))]
+    steps = max(1, int(round(horizon / dt)))
+    starts = np.arange(test[0], test[-1] - steps, steps)
+    if len(starts) == 0:
+        starts = np.array([test[0]])
+        steps = max(1, len(test) - 2)
+    rec = np.stack([system.state_at(starts + k) for k in range(steps + 1)])
+    scale = np.std(system.state_at(test), axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    roll, score, sims = {}, {}, {}
+    for label, eff in (("nominal", []), ("augmented", effects)):
+        sim = _rollouts(system, starts, steps, eff, dt)
+        err = np.sqrt(np.nanmean((sim - rec) ** 2, axis=(0, 1)))
+        roll[label] = [float(v) for v in err]
+        score[label] = float(np.sqrt(np.mean((err / scale) ** 2)))
+        sims[label] = sim
+    n_ex = min(example_windows, len(starts))
+    ex_t = np.concatenate([t[starts[i]:starts[i] + steps + 1] for i in range(n_ex)])
+    example = {"t": ex_t,
+               "recorded": np.concatenate([rec[:, i] for i in range(n_ex)]),
+               "nominal": np.concatenate([sims["nominal"][:, i] for i in range(n_ex)]),
+               "augmented": np.concatenate([sims["augmented"][:, i] for i in range(n_ex)]),
+               "breaks": t[starts[:n_ex]], "window_len": np.array(steps + 1)}
+    return Comparison(split=(float(t[0]), float(t_split), float(t[-1])), derivative_rmse=der,
+                      rollout_rmse=roll, score=score, horizon=horizon, example=example)

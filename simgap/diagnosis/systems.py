@@ -1,0 +1,527 @@
+"""System adapters: how a recording and a nominal model become residual channels.
+
+An adapter knows, for one kind of nominal model, which recording columns hold time, states
+and inputs (a :class:`ColumnMap`), how to compute the physical residual from filtered
+signals, which vocabulary effects apply, and how to simulate nominal and augmented models
+for the comparison. Two adapters exist:
+
+* :class:`MechanicalSystem`: any :class:`~simgap.models.base.MechanicalNominalModel`
+  (M(q) ddq + bias(q, dq) = tau). Residual = joint torque (N·m, or N for prismatic joints)
+  tau − (M(q) ddq + bias(q, dq)) = tau_d. Velocities may be recorded or differentiated from
+  positions; inputs may be scaled (e.g. a motor constant times a voltage).
+* :class:`BicycleSystem`: :class:`~simgap.models.bicycle.BicycleNominal` with per-sample
+  vx; residual = axle-force deviation Delta = K⁻¹(dx/dt − f(x, u; vx)) (N).
+
+An adapter is used for one recording: :meth:`prepare` stores the recording's filtered
+signals on it. The noise floor of each channel is the propagated sensor noise
+(:func:`simgap.diagnosis.residual.noise_floor`) combined with :data:`NUMERICAL_FLOOR` times the
+channel's modelled force/torque RMS.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.signal import lfilter
+
+from simgap.diagnosis.effects import BICYCLE_EFFECTS, MECHANICAL_EFFECTS, PAYLOAD, Effect
+from simgap.diagnosis.residual import (
+    ResidualResult,
+    Smoother,
+    choose_window,
+    derivative_gain,
+    noise_floor,
+    noise_std,
+    uniform_grid,
+)
+from simgap.models import manipulator as man
+from simgap.models.base import MechanicalNominalModel
+from simgap.models.bicycle import BicycleNominal, axle_loads, state_derivative
+from simgap.models.tires import MagicFormulaTire
+from simgap.recordings import Recording
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColumnMap:
+    """Which recording columns hold the model's quantities.
+
+    Attributes:
+        t: time column (s).
+        q: generalised positions (rad or m), one column per joint (mechanical) — or, for the
+            bicycle, the state columns (vy, r).
+        dq: generalised velocities (rad/s or m/s); ``None`` = differentiate ``q``.
+        u: inputs (joint torques/forces, or steering angles), one column per input.
+        u_scale: factor applied to each input column (e.g. motor gain N/V); default 1.
+        vx: longitudinal speed column (bicycle only).
+        input_hold: ``"zoh"`` if each logged input is held until the next sample (the
+            logged value at t_k acts on [t_k, t_k+1)); the residual then uses the average of
+            the inputs before and after each sample. ``"sample"`` uses the value as is.
+    """
+
+    t: str = "t"
+    q: tuple[str, ...]
+    dq: tuple[str, ...] | None = None
+    u: tuple[str, ...]
+    u_scale: tuple[float, ...] | None = None
+    vx: str | None = None
+    input_hold: str = "zoh"
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """All columns the recording must have."""
+        cols = (self.t,) + self.q + (self.dq or ()) + self.u
+        return cols + ((self.vx,) if self.vx else ())
+
+
+MANIPULATOR_COLUMNS = ColumnMap(q=("q1", "q2"), dq=("dq1", "dq2"), u=("tau1", "tau2"))
+STICK_WIDTHS = 3.0
+#: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
+#: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
+NUMERICAL_FLOOR = 1e-3
+BICYCLE_COLUMNS = ColumnMap(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
+
+
+def _held(u: np.ndarray, hold: str) -> np.ndarray:
+    if hold != "zoh":
+        return u
+    out = u.copy()
+    out[1:] = 0.5 * (u[1:] + u[:-1])
+    return out
+
+
+@njit(cache=True)
+def _manip_batch(la, q, dq, ddq):  # pragma: no cover - compiled
+    """Inverse dynamics M ddq + C dq + G per row (N·m) with the model's kernels."""
+    n = q.shape[0]
+    out = np.empty((n, 2))
+    for k in range(n):
+        out[k] = (man.mass_matrix(q[k], la) @ ddq[k] + man.coriolis_matrix(q[k], dq[k], la)
+                  @ dq[k] + man.gravity_vector(q[k], la))
+    return out
+
+
+@njit(cache=True)
+def _tau_d_batch(theta, q, dq):  # pragma: no cover - compiled
+    """Left-out torque tau_d(q, dq) per row (N·m) of a plant array."""
+    n = q.shape[0]
+    out = np.empty((n, 2))
+    for k in range(n):
+        out[k] = man.tau_d(q[k], dq[k], theta)
+    return out
+
+
+@njit(cache=True)
+def _manip_mass_batch(la, q):  # pragma: no cover - compiled
+    n = q.shape[0]
+    out = np.empty((n, 2, 2))
+    for k in range(n):
+        out[k] = man.mass_matrix(q[k], la)
+    return out
+
+
+class MechanicalSystem:
+    """Adapter for a :class:`MechanicalNominalModel` (see the module docstring).
+
+    Args:
+        model: the nominal model; ``ManipulatorNominal`` gets fast batched kernels and the
+            payload effect, any other mechanical model is evaluated sample by sample through
+            its ``M`` and ``bias``.
+        columns: column map; default: the manipulator's spec columns.
+        name: model name for the report.
+        channels: channel names (default ``joint1..n``).
+    """
+
+    kind = "mechanical"
+
+    def __init__(self, model: MechanicalNominalModel, columns: ColumnMap = MANIPULATOR_COLUMNS,
+                 name: str | None = None, channels: Sequence[str] | None = None) -> None:
+        self.model = model
+        self.columns = columns
+        self.n_channels = len(columns.q)
+        if len(columns.u) != self.n_channels or (columns.dq and len(columns.dq) !=
+                                                 self.n_channels):
+            raise ValueError("column map needs one q, (dq) and u column per joint")
+        self.name = name or getattr(model, "name", "mechanical")
+        self.channels = tuple(channels or (f"joint{i + 1}" for i in range(self.n_channels)))
+        units = getattr(model, "residual_units", None)
+        self.channel_units = tuple(units) if units and len(units) == self.n_channels else \
+            ("N·m",) * self.n_channels
+        self.is_manipulator = isinstance(model, man.ManipulatorNominal)
+        self.coulomb_sigma = np.full(self.n_channels, 1e-3)
+        self.state_names = tuple(columns.q) + tuple(columns.dq or
+                                                     (f"d{c}" for c in columns.q))
+        self.state_units = ("rad",) * self.n_channels + ("rad/s",) * self.n_channels
+        self.derivative_names = tuple(f"dd{c}" for c in columns.q)
+        self.derivative_units = ("rad/s²",) * self.n_channels
+        self.rollout_horizon = 0.2
+
+    # -- model quantities --------------------------------------------------------------
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
+                         model: MechanicalNominalModel | None = None) -> np.ndarray:
+        """M(q) ddq + bias(q, dq) per row (N·m)."""
+        m = model or self.model
+        if isinstance(m, man.ManipulatorNominal):
+            q, dq = np.ascontiguousarray(q), np.ascontiguousarray(dq)
+            out = _manip_batch(m.params.array, q, dq, np.ascontiguousarray(ddq))
+            theta = getattr(m, "theta", None)  # augmented arm: friction, bias, spring
+            return out + _tau_d_batch(theta, q, dq) if theta is not None else out
+        return np.array([m.inverse_dynamics(q[k], dq[k], ddq[k]) for k in range(q.shape[0])])
+
+    def mass(self, q: np.ndarray) -> np.ndarray:
+        """M(q) per row, shape (N, n, n)."""
+        if self.is_manipulator:
+            return _manip_mass_batch(self.model.params.array, np.ascontiguousarray(q))
+        return np.array([self.model.M(q[k]) for k in range(q.shape[0])])
+
+    def gravity(self, q: np.ndarray) -> np.ndarray:
+        """Velocity-independent torques bias(q, 0) = G(q) per row (N·m)."""
+        z = np.zeros_like(q)
+        return self.inverse_dynamics(q, z, z)
+
+    def payload_regressor(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Torque per kg of point mass at the tip of link 2 (N·m/kg), whole arm."""
+        p = self.model.params
+        heavy = man.ManipulatorNominal(dataclasses.replace(p, payload=p.payload + 1.0))
+        return self.inverse_dynamics(q, dq, ddq, heavy) - self.inverse_dynamics(q, dq, ddq)
+
+    def candidates(self) -> list[tuple[Effect, int | None, str]]:
+        """Vocabulary effects to test: (effect, channel index or None, channel name)."""
+        out: list[tuple[Effect, int | None, str]] = []
+        for e in MECHANICAL_EFFECTS:
+            if e.scope == "joint":
+                out += [(e, j, self.channels[j]) for j in range(self.n_channels)]
+            else:
+                out.append((e, None, "arm"))
+        if self.is_manipulator:
+            out.append((PAYLOAD, None, "arm"))
+        return out
+
+    # -- signals and residual ----------------------------------------------------------
+    def _signals(self, raw: Mapping[str, np.ndarray], sm: Smoother) -> dict[str, np.ndarray]:
+        c = self.columns
+        qr = np.stack([raw[k] for k in c.q], axis=1)
+        q = sm(qr)
+        if c.dq:
+            dqr = np.stack([raw[k] for k in c.dq], axis=1)
+            dq, ddq = sm(dqr), sm(dqr, 1)
+        else:
+            dq, ddq = sm(qr, 1), sm(qr, 2)
+        scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
+        u = sm(_held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold)) * scale
+        return {"q": q, "dq": dq, "ddq": ddq, "u": u}
+
+    def _residual(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        return sig["u"] - self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"])
+
+    def prepare(self, rec: Recording) -> ResidualResult:
+        """Filter the recording, compute the residual (N·m) and its noise floor."""
+        c = self.columns
+        t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
+                                                    if k != c.t})
+        dt = float(t[1] - t[0])
+        diff_cols = [raw[k] for k in (c.dq or c.q)]
+        window = choose_window(diff_cols, dt, deriv=1 if c.dq else 2)
+        sm = Smoother(window, dt)
+        sig = self._signals(raw, sm)
+        res = self._residual(sig)
+        col_noise = {k: noise_std(v) for k, v in raw.items()}
+        floor = noise_floor(raw, col_noise, lambda r: self._residual(self._signals(r, sm)), res)
+        model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
+                                    axis=0))
+        floor = np.hypot(floor, NUMERICAL_FLOOR * model_rms)
+        # Coulomb smoothing: below ~2 std of the filtered velocity noise the sign is unknown.
+        vel_noise = [col_noise[k] for k in c.dq] if c.dq else [
+            col_noise[k] / dt for k in c.q]
+        gain0 = derivative_gain(window, 0, dt)
+        self.coulomb_sigma = np.maximum(2.0 * np.asarray(vel_noise) * gain0, 1e-4)
+        self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
+        scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
+        self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
+        return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
+                              smoother=sm, resampled=resampled, column_noise=col_noise)
+
+    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """Signals at the given rows (plus ``idx``)."""
+        out = {k: v[idx] for k, v in self.sig.items()}
+        out["idx"] = idx
+        return out
+
+    def set_context(self, terms: Sequence[tuple]) -> None:
+        """Couple terms of one model (nothing to couple for mechanical effects)."""
+
+    def fit_mask(self) -> np.ndarray:
+        """Rows (N, n) whose joint residual is determinate: |dq| above 3 Coulomb widths.
+
+        Below it the joint may be stuck, where friction takes any value up to breakaway and
+        its sign is unknowable from the velocity; those samples are left out of fitting and
+        scoring for that joint (they stay in the located residual).
+        """
+        return np.abs(self.sig["dq"]) >= STICK_WIDTHS * self.coulomb_sigma
+
+    @staticmethod
+    def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Signals with accelerations set to zero (splits mass-type effect terms)."""
+        out = dict(sig)
+        out["ddq"] = np.zeros_like(sig["ddq"])
+        return out
+
+    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+        """Variables the residual may depend on: name -> (values on the grid, unit)."""
+        out = {}
+        for j, c in enumerate(self.columns.q):
+            out[c] = (self.sig["q"][:, j], "rad")
+        for j, c in enumerate(self.state_names[self.n_channels:]):
+            out[c] = (self.sig["dq"][:, j], "rad/s")
+        for j, c in enumerate(self.derivative_names):
+            out[c] = (self.sig["ddq"][:, j], "rad/s²")
+        return out
+
+    # -- simulation --------------------------------------------------------------------
+    def _effect_split(self, effects, q, dq):
+        """tau_d(q, dq, ddq) = A(q) ddq + b(q, dq) of the fitted effects, per row."""
+        n = q.shape[0]
+        nc = self.n_channels
+        zero = {"q": q, "dq": dq, "ddq": np.zeros((n, nc))}
+        b = np.zeros((n, nc))
+        a = np.zeros((n, nc, nc))
+        for eff, idx, lin, nl in effects:
+            base = eff(lin, nl, zero, idx, self)
+            b += base
+            if eff.uses_derivatives:
+                for j in range(nc):
+                    unit = np.zeros((n, nc))
+                    unit[:, j] = 1.0
+                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, self) - base
+        return a, b
+
+    def acceleration(self, q, dq, u, effects) -> np.ndarray:
+        """Ddq (rad/s²) of the nominal (+ fitted effects): (M + A) ddq = u − bias − b."""
+        z = np.zeros_like(q)
+        rhs = u - self.inverse_dynamics(q, dq, z)
+        mass = self.mass(q)
+        if effects:
+            a, b = self._effect_split(effects, q, dq)
+            mass = mass + a
+            rhs = rhs - b
+        return np.linalg.solve(mass, rhs[..., None])[..., 0]
+
+    def state_at(self, idx: np.ndarray) -> np.ndarray:
+        """Return the filtered recorded state (q, dq) at rows ``idx``."""
+        return np.concatenate([self.sig["q"][idx], self.sig["dq"][idx]], axis=1)
+
+    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
+        """Measured velocity-state derivative (ddq) at rows ``idx``."""
+        return self.sig["ddq"][idx]
+
+    def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
+        """Model ddq at the recorded states and inputs."""
+        return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], self.sig["u"][idx],
+                                 effects)
+
+    def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
+        """One RK4 step of a batch of states s = (q, dq) with the recorded input of rows k."""
+        nc = self.n_channels
+        u = self._u_hold[k]
+
+        def deriv(x):
+            return np.concatenate([x[:, nc:], self.acceleration(x[:, :nc], x[:, nc:], u,
+                                                                effects)], axis=1)
+        k1 = deriv(s)
+        k2 = deriv(s + 0.5 * dt * k1)
+        k3 = deriv(s + 0.5 * dt * k2)
+        k4 = deriv(s + dt * k3)
+        return s + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+
+class BicycleSystem:
+    """Adapter for :class:`BicycleNominal` with the measured, varying vx (see module doc)."""
+
+    kind = "bicycle"
+
+    def __init__(self, model: BicycleNominal | None = None,
+                 columns: ColumnMap = BICYCLE_COLUMNS, name: str = "bicycle",
+                 tire: MagicFormulaTire | None = None) -> None:
+        self.model = model or BicycleNominal()
+        self.params = self.model.params
+        self.columns = columns
+        self.name = name
+        self.channels = ("front_axle", "rear_axle")
+        self.channel_units = ("N", "N")
+        self.n_channels = 2
+        self.K_inv = self.model.K_inv
+        self.stiffness = (self.params.C_af, self.params.C_ar)
+        self.loads = axle_loads(self.params.array)
+        self.tire = tire or MagicFormulaTire()
+        self.state_names = ("vy", "r")
+        self.state_units = ("m/s", "rad/s")
+        self.derivative_names = ("dvy", "dr")
+        self.derivative_units = ("m/s²", "rad/s²")
+        self.rollout_horizon = 1.0
+        self._lag_cache: dict[tuple[int, float], np.ndarray] = {}
+        self.axle_mu: dict[int, float] = {}
+
+    def candidates(self) -> list[tuple[Effect, int | None, str]]:
+        """Vocabulary effects to test (steering lag only on axles whose command varies)."""
+        out: list[tuple[Effect, int | None, str]] = []
+        for e in BICYCLE_EFFECTS:
+            if e.scope == "axle":
+                for i in range(2):
+                    key = ("delta_f", "delta_r")[i]
+                    if e.name == "steering_lag" and np.ptp(self.sig[key]) < 1e-6:
+                        continue
+                    out.append((e, i, self.channels[i]))
+            else:
+                out.append((e, None, "vehicle"))
+        return out
+
+    def _signals(self, raw: Mapping[str, np.ndarray], sm: Smoother) -> dict[str, np.ndarray]:
+        c = self.columns
+        vy_c, r_c = c.q
+        scale = np.asarray(c.u_scale or (1.0, 1.0))
+        u = sm(_held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold)) * scale
+        vx = sm(raw[c.vx])
+        sig = {"vy": sm(raw[vy_c]), "r": sm(raw[r_c]), "dvy": sm(raw[vy_c], 1),
+               "dr": sm(raw[r_c], 1), "vx": np.maximum(vx, 1.0 + 1e-6), "delta_f": u[:, 0],
+               "delta_r": u[:, 1]}
+        lf, lr = self.params.lf, self.params.lr
+        sig["alpha_f"] = sig["delta_f"] - (sig["vy"] + lf * sig["r"]) / sig["vx"]
+        sig["alpha_r"] = sig["delta_r"] - (sig["vy"] - lr * sig["r"]) / sig["vx"]
+        return sig
+
+    def _residual(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        x = np.stack([sig["vy"], sig["r"]], axis=1)
+        u = np.stack([sig["delta_f"], sig["delta_r"]], axis=1)
+        dx = np.stack([sig["dvy"], sig["dr"]], axis=1)
+        g = dx - state_derivative(x, u, self.params, sig["vx"])
+        return g @ self.K_inv.T
+
+    def prepare(self, rec: Recording) -> ResidualResult:
+        """Filter the recording, compute Delta = K⁻¹ g (N) and its noise floor."""
+        c = self.columns
+        t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
+                                                    if k != c.t})
+        if np.any(raw[c.vx] <= 1.0):
+            i = int(np.argmax(raw[c.vx] <= 1.0))
+            raise ValueError(f"{rec.name}: column {c.vx!r} row {i + 1}: vx = {raw[c.vx][i]!r} "
+                             "m/s, the bicycle model needs vx > 1 m/s")
+        dt = float(t[1] - t[0])
+        window = choose_window([raw[k] for k in c.q], dt, deriv=1)
+        sm = Smoother(window, dt)
+        sig = self._signals(raw, sm)
+        res = self._residual(sig)
+        col_noise = {k: noise_std(v) for k, v in raw.items()}
+        floor = noise_floor(raw, col_noise, lambda r: self._residual(self._signals(r, sm)), res)
+        tire = np.stack([self.stiffness[0] * sig["alpha_f"], self.stiffness[1] * sig["alpha_r"]],
+                        axis=1)  # modelled (linear) axle forces, N
+        floor = np.hypot(floor, NUMERICAL_FLOOR * np.sqrt(np.mean(tire**2, axis=0)))
+        self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
+        scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
+        self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
+        self._lag_cache = {}
+        return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
+                              smoother=sm, resampled=resampled, column_noise=col_noise)
+
+    def lagged_steering(self, axle: int, tau: float) -> np.ndarray:
+        """Road-wheel angle (rad) of a first-order lag tau (s) behind the command.
+
+        Exact for a command held over each sample (ZOH): the raw logged command is filtered,
+        not the hold-averaged one (which already lags by half a sample).
+        """
+        key = (axle, round(float(tau), 12))
+        if key not in self._lag_cache:
+            d = self._u_hold[:, axle]
+            a = np.exp(-self.smoother.dt / max(tau, 1e-9))
+            self._lag_cache[key] = lfilter([0.0, 1.0 - a], [1.0, -a], d - d[0]) + d[0]
+            if len(self._lag_cache) > 64:
+                self._lag_cache.pop(next(iter(self._lag_cache)))
+        return self._lag_cache[key]
+
+    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """Signals at the given rows (plus ``idx``)."""
+        out = {k: v[idx] for k, v in self.sig.items()}
+        out["idx"] = idx
+        return out
+
+    def set_context(self, terms: Sequence[tuple]) -> None:
+        """Record the mu of tire_saturation terms per axle (used by the steering lag).
+
+        Args:
+            terms: (effect, axle index, lin, nl) of one model.
+        """
+        self.axle_mu = {i: float(nl[0]) for eff, i, _lin, nl in terms
+                        if eff.name == "tire_saturation"}
+
+    def fit_mask(self) -> np.ndarray:
+        """All rows are used for fitting (N, 2)."""
+        return np.ones((len(self.t), 2), dtype=bool)
+
+    @staticmethod
+    def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Signals with dvy, dr set to zero (splits mass-type effect terms)."""
+        out = dict(sig)
+        out["dvy"] = np.zeros_like(sig["dvy"])
+        out["dr"] = np.zeros_like(sig["dr"])
+        return out
+
+    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+        """Variables the residual may depend on: name -> (values, unit)."""
+        s = self.sig
+        return {"alpha_f": (s["alpha_f"], "rad"), "alpha_r": (s["alpha_r"], "rad"),
+                "vy": (s["vy"], "m/s"), "r": (s["r"], "rad/s"),
+                "delta_f": (s["delta_f"], "rad"), "ay": (s["dvy"] + s["vx"] * s["r"], "m/s²"),
+                "vx": (s["vx"], "m/s"), "dr": (s["dr"], "rad/s²")}
+
+    # -- simulation --------------------------------------------------------------------
+    def _deriv(self, x, idx, effects, u):
+        vx = self.sig["vx"][idx]
+        f = state_derivative(x, u, self.params, vx)
+        if not effects:
+            return f
+        lf, lr = self.params.lf, self.params.lr
+        sig = {"vy": x[:, 0], "r": x[:, 1], "vx": vx, "delta_f": u[:, 0], "delta_r": u[:, 1],
+               "alpha_f": u[:, 0] - (x[:, 0] + lf * x[:, 1]) / vx,
+               "alpha_r": u[:, 1] - (x[:, 0] - lr * x[:, 1]) / vx, "idx": idx,
+               "dvy": np.zeros(len(idx)), "dr": np.zeros(len(idx))}
+        self.set_context(effects)
+        k = self.model.K
+        b = np.zeros((len(idx), 2))
+        d = np.zeros((len(idx), 2, 2))
+        for eff, i, lin, nl in effects:
+            base = eff(lin, nl, sig, i, self)
+            b += base
+            if eff.uses_derivatives:
+                for j, key in enumerate(("dvy", "dr")):
+                    s2 = dict(sig)
+                    s2[key] = np.ones(len(idx))
+                    d[:, :, j] += eff(lin, nl, s2, i, self) - base
+        # dx = f + K (b + D dx)  →  (I − K D) dx = f + K b
+        lhs = np.eye(2)[None] - np.einsum("ij,njk->nik", k, d)
+        return np.linalg.solve(lhs, (f + b @ k.T)[..., None])[..., 0]
+
+
+    def state_at(self, idx: np.ndarray) -> np.ndarray:
+        """Return the filtered recorded state (vy, r) at rows ``idx``."""
+        return np.stack([self.sig["vy"][idx], self.sig["r"][idx]], axis=1)
+
+    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
+        """Measured (dvy, dr) at rows ``idx``."""
+        return np.stack([self.sig["dvy"][idx], self.sig["dr"][idx]], axis=1)
+
+    def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
+        """Model (dvy, dr) at the recorded (filtered) states and inputs."""
+        u = np.stack([self.sig["delta_f"][idx], self.sig["delta_r"][idx]], axis=1)
+        return self._deriv(self.state_at(idx), idx, effects, u)
+
+    def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
+        """One RK4 step of a batch of (vy, r) with the recorded input and vx of rows k."""
+        u = self._u_hold[k]
+        k1 = self._deriv(s, k, effects, u)
+        k2 = self._deriv(s + 0.5 * dt * k1, k, effects, u)
+        k3 = self._deriv(s + 0.5 * dt * k2, k, effects, u)
+        k4 = self._deriv(s + dt * k3, k, effects, u)
+        return s + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)

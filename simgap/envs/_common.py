@@ -1,0 +1,82 @@
+"""Small helpers shared by the envs: argument checks and the per-step action check."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _finite_clip(a, lo, hi, out):  # pragma: no cover - compiled
+    """Clip ``a`` into [lo, hi] into ``out``; return False (out untouched) if a is not finite."""
+    for i in range(a.shape[0]):
+        if not np.isfinite(a[i]):
+            return False
+    for i in range(a.shape[0]):
+        out[i] = min(max(a[i], lo[i]), hi[i])
+    return True
+
+
+def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:
+    """Validate an action and clip it into the box [low, high].
+
+    Args:
+        action: array-like of shape ``low.shape``.
+        low: lower bounds (float64).
+        high: upper bounds (float64).
+        what: description used in error messages, e.g. ``"joint torques (N·m)"``.
+
+    Returns:
+        A new float64 array, clipped.
+
+    Raises:
+        ValueError: wrong shape, or a NaN/inf entry (the env state is left untouched).
+    """
+    a = np.asarray(action, dtype=np.float64)
+    if a.shape != low.shape:
+        a = a.reshape(-1) if a.size == low.size else a
+        if a.shape != low.shape:
+            raise ValueError(f"action must be {low.shape[0]} {what}, got shape {np.shape(action)}")
+    out = np.empty_like(low)
+    if not _finite_clip(a, low, high, out):
+        raise ValueError(f"action contains NaN or inf: {a!r} ({what}); the step was not taken")
+    return out
+
+
+def check_positive(name: str, value: object, unit: str, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming the argument and its unit."""
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number ({unit}), got {value!r}") from None
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{name} must be a finite {kind} number ({unit}), got {value!r}")
+    return v
+
+
+def check_count(name: str, value: object) -> int:
+    """Return ``value`` as an int >= 1, or raise ``ValueError``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+def check_pair(name: str, value: object, unit: str) -> np.ndarray:
+    """Turn a positive scalar or per-channel pair into a float64 array (2,), or raise."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(2, float(arr))
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(f"{name} must be a positive finite number or pair ({unit}), "
+                         f"got {value!r}")
+    return arr
+
+
+def check_render_mode(render_mode: str | None, modes: list[str]) -> str | None:
+    """Accept ``None`` or one of ``modes``."""
+    if render_mode is not None and render_mode not in modes:
+        raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
+    return render_mode

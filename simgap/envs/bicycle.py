@@ -1,0 +1,233 @@
+"""``simgap/BicycleTire-v0``: single-track lateral dynamics with saturating tires (Sec. 4.4.1).
+
+The truth is the bicycle of ``spec/models.md`` with Magic Formula axle forces (road friction
+``mu``), optionally with tire relaxation, steering lag and constant biases; the nominal model
+(``env.unwrapped.nominal_model``) is the linear-tire bicycle (thesis eq. 2.7). The thesis' truth
+was IPG CarMaker with Pacejka 5.2 tires, which is not available: this env is a stand-in whose
+residual is known exactly. All physics is in :mod:`simgap.models.bicycle`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from simgap.envs._common import (
+    check_count,
+    check_pair,
+    check_positive,
+    check_render_mode,
+    prepare_action,
+)
+from simgap.envs.scenarios import YawRateReference
+from simgap.models.bicycle import (
+    BicycleNominal,
+    BicycleParams,
+    check_vx,
+    plant_array,
+    plant_forces,
+    plant_step,
+    slip_angles,
+    true_residual_vs,
+)
+from simgap.models.tires import MagicFormulaTire
+
+TIRE_MODELS = ("magic_formula", "linear")
+
+
+def _resolve_tire(tire: str | MagicFormulaTire | None) -> MagicFormulaTire | None:
+    if isinstance(tire, MagicFormulaTire):
+        return tire
+    if tire == "magic_formula":
+        return MagicFormulaTire()
+    if tire == "linear" or tire is None:
+        return None
+    raise ValueError(f"unknown tire model {tire!r}; choose one of {list(TIRE_MODELS)} "
+                     f"or pass a MagicFormulaTire")
+
+
+class BicycleTireEnv(gym.Env):
+    """Single-track vehicle at constant speed tracking a yaw-rate reference.
+
+    * Observation (vy, r): lateral velocity at the CG (m/s) and yaw rate (rad/s), float64.
+    * Action (delta_f, delta_r): front and rear road-wheel steering angles (rad), Box
+      [−steer_limit, steer_limit]. Finite actions outside are clipped (the clipped angle is
+      what acts and what ``residual_true`` uses); NaN/inf raise ``ValueError`` and leave the
+      state unchanged.
+    * Step: zero-order hold for ``dt`` s, ``n_substeps`` RK4 sub-steps.
+    * Reward: −(r − r_ref)² (rad²/s²) at the time after the step.
+    * Termination: |sideslip| = |atan(vy/vx)| above ``max_sideslip`` (rad; the car is
+      spinning out and the single-track model no longer holds) or a non-finite state. The bare
+      env never truncates; ``gym.make`` adds a 3,500-step (35 s) ``TimeLimit``.
+    * Reset: straight running, vy = r = 0, steering and slip lags at rest;
+      ``options={"state": (vy, r)}`` starts elsewhere.
+
+    ``info`` (every step and at reset): ``"t"`` time after the step (s); ``"r_ref"`` the
+    reference yaw rate then (rad/s); ``"residual_true"`` the true g(x_k, u_k) (2,) of this
+    transition (m/s², rad/s²) against the nominal model; ``"axle_force_residual_true"`` and
+    ``"physical_residual_true"`` the axle-force deviations (Delta_f, Delta_r) = K_nom⁻¹ g (N).
+    ``"applied_action"`` the steering command after clipping (rad; zeros at reset). At reset
+    the residual is evaluated at the initial state with zero steering.
+
+    Args:
+        render_mode: ``None`` or ``"rgb_array"`` (top view with axle force arrows).
+        vx: constant longitudinal speed (m/s), > 1.
+        mu: road friction of the truth tires (-); ``None`` keeps ``true_params.mu`` (1.0 by
+            default). A given value overrides ``true_params.mu``.
+        tire: ``"magic_formula"`` (spec defaults C = 1.3, E = −0.5), ``"linear"`` (truth equals
+            the nominal tire), or a :class:`MagicFormulaTire`.
+        relaxation_length: tire relaxation length (m), scalar or (front, rear); 0 = off.
+        steering_lag: first-order lag of the road-wheel angle behind the command (s); 0 = off.
+        lateral_bias: constant lateral acceleration on the body (m/s²), e.g. road bank.
+        yaw_bias: constant yaw acceleration (rad/s²).
+        true_params: the truth vehicle (default: the spec's sedan).
+        nominal_params: the nominal model's vehicle (default: the spec's sedan).
+        dt: step period (s), 0.01 in the thesis.
+        n_substeps: RK4 sub-steps per step.
+        reference: callable t (s) → r_ref (rad/s); default :class:`YawRateReference`.
+        steer_limit: action bound (rad), scalar or per axle.
+        max_sideslip: sideslip bound (rad) in (0, π/2).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
+
+    def __init__(self, render_mode: str | None = None, *, vx: float = 20.0,
+                 mu: float | None = None,
+                 tire: str | MagicFormulaTire = "magic_formula",
+                 relaxation_length: float | tuple[float, float] = 0.0,
+                 steering_lag: float = 0.0, lateral_bias: float = 0.0, yaw_bias: float = 0.0,
+                 true_params: BicycleParams | None = None,
+                 nominal_params: BicycleParams | None = None,
+                 dt: float = 0.01, n_substeps: int = 4,
+                 reference: Callable[[float], float] | None = None,
+                 steer_limit: float | tuple[float, float] = 0.5,
+                 max_sideslip: float = 0.35) -> None:
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
+        self.vx = check_vx(vx)
+        self.dt = check_positive("dt", dt, "s")
+        self.n_substeps = check_count("n_substeps", n_substeps)
+        self.steer_limit = check_pair("steer_limit", steer_limit, "rad")
+        self.max_sideslip = check_positive("max_sideslip", max_sideslip, "rad")
+        if self.max_sideslip >= math.pi / 2:
+            raise ValueError(f"max_sideslip must be below pi/2 rad, got {max_sideslip!r}")
+        for name, p in (("true_params", true_params), ("nominal_params", nominal_params)):
+            if p is not None and not isinstance(p, BicycleParams):
+                raise ValueError(f"{name} must be BicycleParams or None, got {p!r}")
+        truth = true_params if true_params is not None else BicycleParams()
+        if mu is not None:
+            truth = replace(truth, mu=check_positive("mu", mu, "-"))
+        self.true_params = truth
+        self.mu = truth.mu
+        self.nominal_params = nominal_params if nominal_params is not None else BicycleParams()
+        self.tire = _resolve_tire(tire)
+        for name, v in (("lateral_bias", lateral_bias), ("yaw_bias", yaw_bias)):
+            if not math.isfinite(float(v)):
+                raise ValueError(f"{name} must be finite, got {v!r}")
+        self.plant_theta = plant_array(self.true_params, self.vx, tire=self.tire,
+                                       relaxation_length=relaxation_length,
+                                       steering_lag=steering_lag,
+                                       lateral_bias=float(lateral_bias),
+                                       yaw_bias=float(yaw_bias))
+        self.reference = reference if reference is not None else YawRateReference()
+        if not callable(self.reference):
+            raise ValueError(f"reference must be a callable t -> r_ref (rad/s), got {reference!r}")
+        self.nominal_model = BicycleNominal(self.nominal_params, vx=self.vx, dt=self.dt)
+
+        self._theta_nom = np.concatenate([self.nominal_params.array, [self.vx]])
+        self._k_inv = np.ascontiguousarray(self.nominal_model.K_inv)
+        self._low = -self.steer_limit
+        self._high = self.steer_limit.copy()
+        self._zero_u = np.zeros(2)
+        self._vy_max = self.vx * math.tan(self.max_sideslip)
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(2,), dtype=np.float64)
+        self.action_space = spaces.Box(self._low.astype(np.float32),
+                                       self._high.astype(np.float32), dtype=np.float32)
+        self._s = np.zeros(6)
+        self._k = 0
+        self._last_u = np.zeros(2)
+        self._renderer = None
+
+    @property
+    def t(self) -> float:
+        """Current time (s): number of steps since reset × dt."""
+        return self._k * self.dt
+
+    @property
+    def plant_state(self) -> np.ndarray:
+        """Copy of the 6-entry plant state.
+
+        (vy, r, alpha_f_lag, alpha_r_lag, delta_f_act, delta_r_act) in m/s, rad/s, rad, rad,
+        rad, rad.
+        """
+        return self._s.copy()
+
+    def _info(self, g: np.ndarray, t: float, r_ref: float, u: np.ndarray) -> dict[str, Any]:
+        delta = self._k_inv @ g
+        return {"t": t, "r_ref": r_ref, "residual_true": g,
+                "axle_force_residual_true": delta, "physical_residual_true": delta.copy(),
+                "applied_action": u}
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Straight running (or ``options["state"]`` = (vy, r)), steering at rest."""
+        super().reset(seed=seed)
+        self._k = 0
+        s = np.zeros(6)
+        state = None if options is None else options.get("state")
+        if state is not None:
+            x = np.asarray(state, dtype=np.float64)
+            if x.shape != (2,) or not np.all(np.isfinite(x)):
+                raise ValueError(f"options['state'] must be 2 finite values (vy m/s, r rad/s), "
+                                 f"got {state!r}")
+            s[:2] = x
+            # relaxation lags start at the steady-state slip of that motion (zero steering)
+            s[2], s[3] = slip_angles(x[0], x[1], 0.0, 0.0, self.vx, self.true_params.lf,
+                                     self.true_params.lr)
+        self._s = s
+        self._last_u = np.zeros(2)
+        g = true_residual_vs(s, self._zero_u, self.plant_theta, self._theta_nom)
+        return s[:2].copy(), self._info(g, 0.0, float(self.reference(0.0)), self._zero_u.copy())
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Apply road-wheel angles (rad) for dt seconds."""
+        u = prepare_action(action, self._low, self._high, "steering angles (rad)")
+        s = self._s
+        g = true_residual_vs(s, u, self.plant_theta, self._theta_nom)
+        s_new = plant_step(s, u, self.plant_theta, self.dt, self.n_substeps)
+        self._s = s_new
+        self._last_u = u
+        self._k += 1
+        t = self._k * self.dt
+        r_ref = float(self.reference(t))
+        err = s_new[1] - r_ref
+        reward = -float(err * err)
+        terminated = not (abs(s_new[0]) <= self._vy_max and math.isfinite(s_new[1]))
+        return s_new[:2].copy(), reward, terminated, False, self._info(g, t, r_ref, u)
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: HxWx3 uint8 top view with true (red) and linear (gray) axle forces."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        if self._renderer is None:
+            from simgap.envs.rendering import CarRenderer
+
+            self._renderer = CarRenderer(self.true_params.lf, self.true_params.lr)
+        fyf, fyr, af, ar = plant_forces(self._s, self._last_u, self.plant_theta)
+        p = self.nominal_params
+        delta = self._s[4:6] if self.plant_theta[14] > 0 else self._last_u
+        return self._renderer.draw(self.vx, self._s[0], self._s[1], delta,
+                                   np.array([fyf, fyr]), np.array([p.C_af * af, p.C_ar * ar]),
+                                   self.t)
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -1,0 +1,212 @@
+"""``simgap/ManipulatorFriction-v0``: the thesis' 2-DOF arm with joint friction (Sec. 4.3.1).
+
+The plant is the rigid body of ``spec/models.md`` (``true_params``) plus a left-out joint
+torque tau_d: friction (default thesis eq. 4.7 with Table 4.2 values) and an optional
+:class:`~simgap.models.manipulator.JointDisturbance`. The nominal model
+(``env.unwrapped.nominal_model``) is the rigid body with ``nominal_params`` and no tau_d.
+All physics is in :mod:`simgap.models.manipulator`; ``step`` only calls its kernels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import partial
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from simgap.envs._common import (
+    check_count,
+    check_pair,
+    check_positive,
+    check_render_mode,
+    prepare_action,
+)
+from simgap.envs.scenarios import QuinticReference, _sample_reference
+from simgap.models.friction import FrictionParams, resolve_friction
+from simgap.models.manipulator import (
+    JointDisturbance,
+    ManipulatorNominal,
+    ManipulatorParams,
+    plant_array,
+    plant_step,
+    tau_d,
+    true_residual,
+)
+
+
+class ManipulatorFrictionEnv(gym.Env):
+    """Two-link arm in a vertical plane tracking a joint reference, with unmodelled friction.
+
+    * Observation (q1, q2, dq1, dq2) in rad, rad, rad/s, rad/s (float64, unbounded Box).
+    * Action: joint torques (tau1, tau2) in N·m, Box [−torque_limit, torque_limit]. Finite
+      actions outside the box are clipped (the clipped torque is what acts and what
+      ``residual_true`` uses); NaN/inf raise ``ValueError`` and leave the state unchanged.
+    * Step: zero-order hold of the torque for ``dt`` s, integrated with ``n_substeps`` RK4
+      sub-steps (20 × 0.1 ms by default; the stiff tanh friction needs them, see the errata).
+    * Reward: −‖q − q_d‖² (rad²) at the time after the step.
+    * Termination: a joint speed above ``max_speed`` (rad/s) or a non-finite state. The bare env
+      never truncates; ``gym.make`` adds a 5,000-step (10 s) ``TimeLimit``.
+    * Reset: q = q_d(0) + U(−init_noise, init_noise) per joint (from ``self.np_random``),
+      dq = dq_d(0). The thesis says "initial joint positions and velocities are set to zero",
+      which conflicts with its q_d(0) = (π/4, π/2) (errata): we start on the reference.
+      ``options={"state": (q1, q2, dq1, dq2)}`` starts elsewhere (noise is then not added).
+
+    ``info`` (every step and at reset):
+
+    * ``"t"``: time after the step (s), exactly k·dt.
+    * ``"reference"``: (q_d, dq_d, ddq_d) at that time, shape (6,) (rad, rad/s, rad/s²).
+    * ``"residual_true"``: the true g(x_k, u_k) (4,) of this transition in the identifier
+      state (q, p) of the nominal model (thesis eq. 2.3): (0, 0, −tau_d) when the rigid body is
+      the nominal one (units rad/s, rad/s, N·m, N·m). At reset: at the initial state with u = 0.
+    * ``"physical_residual_true"``: tau_d (N·m, (2,)) at the pre-step state.
+    * ``"applied_action"``: the torque that acted (N·m, (2,)), i.e. the action after clipping
+      (zeros at reset). Identifiers should use it as u when actions may leave the box.
+
+    Args:
+        render_mode: ``None`` or ``"rgb_array"`` (side view of the arm and its reference).
+        friction: preset name (``"thesis"``, ``"coulomb"``, ``"viscous"``, ``"stribeck"``,
+            ``"none"``), a :class:`FrictionParams`, or ``None`` (no friction).
+        disturbance: extra joint bias/spring torques of the plant.
+        true_params: the plant's rigid body (default: ``nominal_params``).
+        nominal_params: the nominal model's parameters (default: thesis Table 4.2).
+        dt: step period (s), 0.002 (500 Hz) in the thesis.
+        n_substeps: RK4 sub-steps per step.
+        reference: joint reference with ``sample(t)`` or a callable t → (q_d, dq_d, ddq_d)
+            (default :class:`QuinticReference`).
+        torque_limit: symmetric action bound (N·m), scalar or per joint.
+        init_noise: half-width of the uniform noise on q at reset (rad).
+        max_speed: joint-speed bound beyond which the episode terminates (rad/s).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, render_mode: str | None = None, *,
+                 friction: str | FrictionParams | None = "thesis",
+                 disturbance: JointDisturbance | None = None,
+                 true_params: ManipulatorParams | None = None,
+                 nominal_params: ManipulatorParams | None = None,
+                 dt: float = 0.002, n_substeps: int = 20,
+                 reference: Callable | None = None,
+                 torque_limit: float | tuple[float, float] = 50.0,
+                 init_noise: float = 0.0, max_speed: float = 100.0) -> None:
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
+        self.dt = check_positive("dt", dt, "s")
+        self.n_substeps = check_count("n_substeps", n_substeps)
+        self.torque_limit = check_pair("torque_limit", torque_limit, "N·m")
+        self.init_noise = check_positive("init_noise", init_noise, "rad", allow_zero=True)
+        self.max_speed = check_positive("max_speed", max_speed, "rad/s")
+        self.friction = resolve_friction(friction)
+        if disturbance is not None and not isinstance(disturbance, JointDisturbance):
+            raise ValueError(f"disturbance must be a JointDisturbance or None, got "
+                             f"{disturbance!r}")
+        for name, p in (("true_params", true_params), ("nominal_params", nominal_params)):
+            if p is not None and not isinstance(p, ManipulatorParams):
+                raise ValueError(f"{name} must be ManipulatorParams or None, got {p!r}")
+        self.disturbance = disturbance
+        self.nominal_params = nominal_params if nominal_params is not None \
+            else ManipulatorParams()
+        self.true_params = true_params if true_params is not None else self.nominal_params
+        self.reference = reference if reference is not None else QuinticReference()
+        if not callable(self.reference) and not hasattr(self.reference, "sample"):
+            raise ValueError(f"reference must be callable, got {reference!r}")
+        self.nominal_model = ManipulatorNominal(self.nominal_params, dt=self.dt)
+
+        # Precomputed kernel arrays (the hot path allocates nothing it does not return).
+        self.plant_theta = plant_array(self.true_params, self.friction, self.disturbance)
+        self._la_nom = np.ascontiguousarray(self.nominal_params.array)
+        self._low = -self.torque_limit
+        self._high = self.torque_limit.copy()
+        self._zero_u = np.zeros(2)
+        sample = getattr(self.reference, "sample", None)
+        self._ref_sample = sample if sample is not None \
+            else partial(_sample_reference, self.reference)
+
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(4,), dtype=np.float64)
+        self.action_space = spaces.Box(self._low.astype(np.float32),
+                                       self._high.astype(np.float32), dtype=np.float32)
+        self._s = np.zeros(4)
+        self._k = 0
+        self._last_u = np.zeros(2)
+        self._renderer = None
+
+    # ------------------------------------------------------------------ state
+    @property
+    def t(self) -> float:
+        """Current time (s): number of steps since reset × dt."""
+        return self._k * self.dt
+
+    @property
+    def plant_state(self) -> np.ndarray:
+        """Copy of the plant state s = (q1, q2, dq1, dq2) (rad, rad/s)."""
+        return self._s.copy()
+
+    def _info(self, g: np.ndarray, tau: np.ndarray, t: float, ref: np.ndarray,
+              u: np.ndarray) -> dict[str, Any]:
+        return {"t": t, "reference": ref, "residual_true": g, "physical_residual_true": tau,
+                "applied_action": u}
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start on the reference (see the class docstring); ``options["state"]`` overrides."""
+        super().reset(seed=seed)
+        self._k = 0
+        ref = np.asarray(self._ref_sample(0.0), dtype=np.float64)
+        state = None if options is None else options.get("state")
+        if state is not None:
+            s = np.asarray(state, dtype=np.float64)
+            if s.shape != (4,) or not np.all(np.isfinite(s)):
+                raise ValueError(f"options['state'] must be 4 finite values (q1, q2, dq1, dq2), "
+                                 f"got {state!r}")
+            self._s = s.copy()
+        else:
+            q = ref[0:2] + self.np_random.uniform(-self.init_noise, self.init_noise, size=2)
+            self._s = np.concatenate([q, ref[2:4]])
+        self._last_u = np.zeros(2)
+        s = self._s
+        g = true_residual(s, self._zero_u, self.plant_theta, self._la_nom)
+        tau = tau_d(s[:2], s[2:], self.plant_theta)
+        return s.copy(), self._info(g, tau, 0.0, ref, self._zero_u.copy())
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Apply joint torques (N·m) for dt seconds."""
+        u = prepare_action(action, self._low, self._high, "joint torques (N·m)")
+        s = self._s
+        theta = self.plant_theta
+        g = true_residual(s, u, theta, self._la_nom)
+        tau = tau_d(s[:2], s[2:], theta)
+        s_new = plant_step(s, u, theta, self.dt, self.n_substeps)
+        self._s = s_new
+        self._last_u = u
+        self._k += 1
+        t = self._k * self.dt
+        ref = self._ref_sample(t)
+        e1 = s_new[0] - ref[0]
+        e2 = s_new[1] - ref[1]
+        reward = -float(e1 * e1 + e2 * e2)
+        lim = self.max_speed
+        terminated = not (abs(s_new[2]) <= lim and abs(s_new[3]) <= lim
+                          and math.isfinite(s_new[0]) and math.isfinite(s_new[1]))
+        return s_new.copy(), reward, terminated, False, self._info(g, tau, t, ref, u)
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: HxWx3 uint8 side view of the arm (blue) and its reference (gray)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        if self._renderer is None:
+            from simgap.envs.rendering import ArmRenderer
+
+            self._renderer = ArmRenderer(self.true_params.l, self.true_params.l)
+        ref = np.asarray(self._ref_sample(self.t), dtype=np.float64)
+        return self._renderer.draw(self._s[:2], ref[:2], self.t, self._last_u)
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -1,0 +1,173 @@
+"""N identifiers of one kind advanced together (vector envs): :class:`BatchIdentifier`.
+
+Every row starts from the same initial weights (the same seed), then learns from its own
+transitions; one numba kernel call advances all rows (the same kernel as for N = 1).
+Baseline 2's mini-batch indices of all due rows come from one seeded Generator, drawn in
+row order, so a batch run is reproducible but not row-for-row equal to N separate runs.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from simgap.identifiers import io
+from simgap.identifiers.config import IdentifierConfig
+from simgap.identifiers.core import IdentifierBase
+from simgap.identifiers.errors import IdentifierError
+
+
+class BatchIdentifier(IdentifierBase):
+    """N identifiers in (N, …) arrays; attributes have a leading axis N.
+
+    Args:
+        kind: ``"instantaneous" | "integral" | "minibatch"``.
+        n_envs: N.
+        n_states, n_inputs, dt, config, seed: as for :func:`~simgap.identifiers.make_identifier`.
+    """
+
+    def __init__(self, kind: str, n_envs: int, n_states: int, n_inputs: int, dt: float, *,
+                 config: IdentifierConfig | None = None, seed: int = 0) -> None:
+        super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=n_envs)
+        self._act_buf = np.empty(self.n_envs, dtype=np.int8)
+
+    def step(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray,
+             learn: np.ndarray | None = None) -> np.ndarray:
+        """Advance every row by one transition (see :meth:`Identifier.step`).
+
+        Args:
+            x: x_k, shape (N, n).
+            u: u_k, shape (N, m).
+            f: f(x_k, u_k), shape (N, n).
+            x_next: x_{k+1}, shape (N, n).
+            learn: boolean (N,); rows with False are not transitions (e.g. the step after an
+                autoreset) and change nothing. ``None`` = all rows.
+
+        Returns:
+            ĝ_k, shape (N, n) (rows with ``learn`` False hold their previous values).
+        """
+        if learn is None:
+            active = self._active
+        else:
+            lm = np.asarray(learn, dtype=bool).reshape(-1)
+            if lm.size != self.n_envs:
+                raise IdentifierError(f"learn mask needs {self.n_envs} entries, got {lm.size}")
+            act = self._act_buf
+            act[:] = 0
+            act[lm] = 1 if self._frozen else 2
+            active = act
+        self._run(self._flat(x), self._flat(u), self._flat(f), self._flat(x_next), active)
+        self.n_steps += 1
+        if not self._frozen and not self._minibatch:
+            self.n_updates += 1
+        return self._field("g").copy()
+
+    @staticmethod
+    def _flat(a: np.ndarray) -> np.ndarray:
+        if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous:
+            return a.reshape(-1)
+        return np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+
+    def predict(self, x_bar: np.ndarray, index: int | None = None) -> np.ndarray:
+        """ĝ with the current weights.
+
+        Args:
+            x_bar: with ``index``: (p,) or (K, p) evaluated by row ``index``'s network;
+                without: (N, p), row i by network i.
+            index: which identifier, or None.
+
+        Returns:
+            ĝ, shape (n,) / (K, n) with ``index``, else (N, n).
+        """
+        if index is not None:
+            if not 0 <= int(index) < self.n_envs:
+                raise IdentifierError(f"index {index} out of range for {self.n_envs} rows")
+            return self._predict_row(int(index), x_bar)
+        xb = np.asarray(x_bar, dtype=np.float64)
+        if xb.shape != (self.n_envs, self.n_in):
+            raise IdentifierError(f"x_bar must have shape ({self.n_envs}, {self.n_in}) without "
+                                  f"index, got {xb.shape}")
+        return np.stack([self._predict_row(i, xb[i]) for i in range(self.n_envs)])
+
+    def reset_observer(self, rows: np.ndarray | None = None, x0: np.ndarray | None = None
+                       ) -> None:
+        """Re-initialise the observers of some rows; weights are kept.
+
+        Args:
+            rows: boolean mask or indices; None = all rows.
+            x0: (N, n); x̂[rows] = x0[rows] and z = 0. None: x̂ = the x of the next step.
+        """
+        sel = np.arange(self.n_envs) if rows is None else np.asarray(rows)
+        if sel.dtype == bool:
+            sel = np.flatnonzero(sel)
+        a = self._nw + self._nv
+        n = self.n_states
+        if x0 is None:
+            self._theta[sel, a:a + 2 * n + 1] = 0.0
+            return
+        x0a = np.asarray(x0, dtype=np.float64)
+        if x0a.shape != (self.n_envs, n) or not np.all(np.isfinite(x0a[sel])):
+            raise IdentifierError(f"reset_observer: x0 must be finite with shape "
+                                  f"({self.n_envs}, {n}), got {x0a.shape}")
+        self._theta[sel, a:a + n] = x0a[sel]
+        self._theta[sel, a + n:a + 2 * n] = 0.0
+        self._theta[sel, -1] = 1.0
+
+    @property
+    def W(self) -> np.ndarray:  # noqa: N802
+        """Ŵ, shape (N, n, n_h)."""
+        return self._W().copy()
+
+    @property
+    def V(self) -> np.ndarray:  # noqa: N802
+        """V̂, shape (N, n_h, p)."""
+        return self._V().copy()
+
+    @property
+    def g_hat(self) -> np.ndarray:
+        """ĝ_k of the last step, (N, n)."""
+        return self._field("g").copy()
+
+    @property
+    def x_bar(self) -> np.ndarray:
+        """Network inputs of the last step, (N, p)."""
+        return self._field("x_bar").copy()
+
+    @property
+    def x_hat(self) -> np.ndarray:
+        """x̂_{k+1}, (N, n)."""
+        return self._field("x_hat").copy()
+
+    @property
+    def x_tilde(self) -> np.ndarray:
+        """x_{k+1} − x̂_{k+1}, (N, n)."""
+        return self._field("x_tilde").copy()
+
+    @property
+    def e(self) -> np.ndarray:
+        """Error signals of the last step, (N, n)."""
+        return self._field("e").copy()
+
+    @property
+    def z(self) -> np.ndarray:
+        """Integral error states, (N, n)."""
+        return self._z().copy()
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write to ``path`` (.npz + JSON meta, no pickle)."""
+        return io.write_npz(path, self._meta(), self._arrays())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> BatchIdentifier:
+        """Read a file written by :meth:`save`."""
+        meta, arrays = io.read_npz(path)
+        try:
+            config = IdentifierConfig.from_dict(meta["config"])
+            ident = cls(meta["kind"], meta["n_envs"], meta["n_states"], meta["n_inputs"],
+                        meta["dt"], config=config, seed=meta["seed"])
+        except KeyError as exc:
+            raise IdentifierError(f"{path}: meta lacks {exc}") from None
+        ident._load_arrays(meta, arrays, str(path))
+        return ident

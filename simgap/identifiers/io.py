@@ -1,0 +1,65 @@
+"""Save and load identifiers: one ``.npz`` of plain arrays plus a JSON ``meta`` string.
+
+No pickle: the file is read with ``numpy.load(..., allow_pickle=False)``; ``meta`` holds the
+kind, sizes, Δt, seed, :class:`~simgap.identifiers.IdentifierConfig`, frozen flag, step
+counters and the state of baseline 2's sampling Generator. Writes go to a temporary file
+in the same folder that replaces the target only when complete (nothing half-written).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from simgap.identifiers.core import FORMAT
+from simgap.identifiers.errors import IdentifierError
+
+
+def write_npz(path: str | os.PathLike[str], meta: dict[str, Any],
+              arrays: dict[str, np.ndarray]) -> Path:
+    """Atomically write ``arrays`` and ``meta`` (as JSON) to ``path``; returns the path."""
+    path = Path(path)
+    if not path.parent.exists():
+        raise IdentifierError(f"cannot save identifier to {path}: folder {path.parent} "
+                              f"does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_npz(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Read a file written by :func:`write_npz`.
+
+    Raises:
+        IdentifierError: naming the file and what is wrong with it.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise IdentifierError(f"{path}: no such identifier file")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise IdentifierError(f"{path}: not a readable .npz identifier file ({exc})") from None
+    if "meta" not in data:
+        raise IdentifierError(f"{path}: missing 'meta' entry (not a simgap identifier file)")
+    try:
+        meta = json.loads(str(data.pop("meta")))
+    except json.JSONDecodeError as exc:
+        raise IdentifierError(f"{path}: 'meta' is not valid JSON ({exc})") from None
+    fmt = meta.get("format") if isinstance(meta, dict) else None
+    if fmt != FORMAT:
+        raise IdentifierError(f"{path}: format {fmt!r} is not {FORMAT!r}")
+    return meta, data

@@ -1,0 +1,149 @@
+"""A 1-DOF rigid axis: a mass on a prismatic joint or a rotor on a revolute joint.
+
+The nominal model of a single driven axis with nothing but inertia::
+
+    M ddq = u                      (M in kg and u in N, or M in kg·m² and u in N·m)
+
+so ``M(q) = [[M]]`` and ``bias(q, dq) = 0``. It is the simplest
+:class:`~simgap.models.base.MechanicalNominalModel`; the diagnosis computes the left-out
+force by inverse dynamics, tau_d = u − M ddq, and names friction, offsets and springs
+from there. Examples: the EMPS positioning axis (``examples/emps_model.py``), a motor with
+a flywheel.
+
+Like the manipulator (thesis eq. 2.3), the identifier state is x = (q, p) with momentum
+p = M dq:
+
+    dq/dt = p / M,   dp/dt = u           (nominal f)
+    g(x, u) = (0, −tau_d)               (residual; M ddq + tau_d = u)
+
+Recording columns (canonical names): ``t, q, dq, u``; ``dq`` may be absent, the diagnosis
+then differentiates ``q``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simgap.models.base import MechanicalNominalModel, validate_positive
+
+#: Units of (position, velocity, effort, inertia, momentum) per joint kind.
+JOINT_UNITS = {
+    "prismatic": ("m", "m/s", "N", "kg", "kg·m/s"),
+    "revolute": ("rad", "rad/s", "N·m", "kg·m²", "kg·m²/s"),
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class RigidAxisParams:
+    """Parameters of a 1-DOF rigid axis.
+
+    Attributes:
+        mass: moved mass (kg) for a prismatic joint, or inertia (kg·m²) for a revolute one.
+        joint: ``"prismatic"`` (q in m, force in N) or ``"revolute"`` (q in rad, torque in
+            N·m).
+    """
+
+    mass: float
+    joint: str = "prismatic"
+
+    def __post_init__(self) -> None:
+        validate_positive("RigidAxisParams.mass", self.mass)
+        if self.joint not in JOINT_UNITS:
+            raise ValueError(f"RigidAxisParams.joint must be one of {sorted(JOINT_UNITS)}, "
+                             f"got {self.joint!r}")
+
+
+class RigidAxisNominal(MechanicalNominalModel):
+    """Nominal model of a 1-DOF rigid mass/rotor driven by a force/torque ``u``.
+
+    Args:
+        params: mass (or inertia) and joint kind.
+        dt: step period (s) when the model is stepped in an env.
+        channel: name of the joint in diagnosis reports (default ``"joint1"``).
+        name: model name used in reports.
+    """
+
+    recording_columns = ("t", "q", "dq", "u")
+    #: Recording columns the diagnosis may derive when absent (velocity from position).
+    derivable_columns = ("dq",)
+    obs_names = ("q", "dq")
+    input_names = ("u",)
+
+    def __init__(self, params: RigidAxisParams, dt: float = 0.001, *, channel: str = "joint1",
+                 name: str = "rigid_axis") -> None:
+        validate_positive("dt", dt)
+        if not isinstance(params, RigidAxisParams):
+            raise TypeError(f"params must be RigidAxisParams, got {type(params).__name__}")
+        if not channel or not isinstance(channel, str):
+            raise ValueError(f"channel must be a non-empty string, got {channel!r}")
+        self.params = params
+        self.dt = float(dt)
+        self.channel_names = (channel,)
+        self.name = name
+        pos, vel, eff, _, mom = JOINT_UNITS[params.joint]
+        self.state_names = ("q", "p")
+        self.state_units = (pos, mom)
+        self.obs_units = (pos, vel)
+        self.input_units = (eff,)
+
+    def __repr__(self) -> str:
+        return (f"RigidAxisNominal(params={self.params!r}, dt={self.dt}, "
+                f"channel={self.channel_names[0]!r}, name={self.name!r})")
+
+    @property
+    def position_units(self) -> tuple[str, ...]:
+        """Unit of q (m or rad)."""
+        return (self.obs_units[0],)
+
+    @property
+    def velocity_units(self) -> tuple[str, ...]:
+        """Unit of dq (m/s or rad/s)."""
+        return (self.obs_units[1],)
+
+    @property
+    def residual_names(self) -> tuple[str, ...]:
+        """Left-out force/torque at the joint."""
+        return ("tau_d1",)
+
+    @property
+    def residual_units(self) -> tuple[str, ...]:
+        """N (prismatic) or N·m (revolute)."""
+        return self.input_units
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Observation (q, dq) → identifier state (q, p = M dq)."""
+        out = np.array(obs, dtype=np.float64)
+        out[..., 1] = self.params.mass * out[..., 1]
+        return out
+
+    def observation(self, x: np.ndarray) -> np.ndarray:
+        """Map the identifier state (q, p) to the observation (q, dq = p / M)."""
+        out = np.array(x, dtype=np.float64)
+        out[..., 1] = out[..., 1] / self.params.mass
+        return out
+
+    def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Return the nominal derivative (p/M, u), the 1-DOF case of thesis eq. 2.3 (rows ok)."""
+        x = np.asarray(x, dtype=np.float64)
+        u = np.asarray(u, dtype=np.float64)
+        return np.stack([x[..., 1] / self.params.mass, u[..., 0]], axis=-1)
+
+    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802 - the physics name
+        """Mass matrix [[M]] (kg or kg·m²); for q of shape (..., 1) returns (..., 1, 1)."""
+        q = np.asarray(q, dtype=np.float64)
+        return np.full(q.shape[:-1] + (1, 1), self.params.mass)
+
+    def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """No velocity or gravity terms: zeros shaped like dq (N or N·m)."""
+        return np.zeros(np.broadcast_shapes(np.shape(q), np.shape(dq)))
+
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Force the nominal needs for the motion: M ddq (N or N·m); rows allowed."""
+        ddq = np.asarray(ddq, dtype=np.float64)
+        return self.params.mass * ddq + self.bias(q, dq)
+
+    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """State residual g (…, 2) → left-out force tau_d = −g[1:] (N or N·m)."""
+        return -np.asarray(g, dtype=np.float64)[..., 1:]

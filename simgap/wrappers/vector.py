@@ -1,0 +1,181 @@
+"""``VectorIdentifierWrapper``: one identifier per sub-env of a vector env, one batched kernel.
+
+For ``gym.make_vec(id, num_envs=N, vectorization_mode="sync")`` (any ``VectorEnv`` whose
+``get_attr("nominal_model")`` returns the sub-envs' models). All N identifiers start from
+the same initial weights (same seed) and learn from their own sub-env; a
+:class:`~simgap.identifiers.BatchIdentifier` advances them in one numba call.
+
+Autoreset (gymnasium 1.x, ``envs.metadata["autoreset_mode"]``):
+
+* ``NEXT_STEP`` (default): the step after a sub-env terminated/truncated only resets it and
+  ignores the action; it is not a transition: that row learns nothing, its observer restarts
+  at the reset observation, and its info entries are masked out (``info["_residual_estimate"]``
+  False for it).
+* ``SAME_STEP``: a finishing sub-env's transition ends in ``info["final_obs"]``; the row learns
+  from (x_k → state(final_obs)), then its observer restarts at the returned reset observation.
+* ``DISABLED``: ``reset(options={"reset_mask": m})`` restarts the observers of the masked rows.
+
+Info keys (gymnasium vector convention: an (N, …) array plus a boolean ``_key`` mask):
+``residual_estimate``, ``state_estimate``, ``estimation_error``, ``physical_residual_estimate``
+(when the model has ``physical_residual``; ``axle_force_residual_estimate`` for the bicycle),
+and ``identifier_frozen`` (bool). Reset semantics as for
+:class:`~simgap.wrappers.IdentifierWrapper`: a seeded reset restores the reset point.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+
+from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
+from simgap.identifiers.config import check_kind, preset
+from simgap.models.base import NominalModel
+from simgap.wrappers.identifier_wrapper import PRESET_FOR_MODEL, action_to_input
+
+
+class VectorIdentifierWrapper(gym.vector.VectorWrapper):
+    """Batched online identification over the sub-envs of a vector env.
+
+    Args:
+        env: the vector env.
+        identifier: ``"integral"`` (default), ``"instantaneous"`` or ``"minibatch"``.
+        frozen: start frozen.
+        config: identifier config (default: the thesis preset for the model).
+        seed: seed of the (shared) initial weights.
+        reset_identifier_on_seed: a seeded reset restores the reset point (default True).
+    """
+
+    def __init__(self, env: gym.vector.VectorEnv, identifier: str = "integral", *,
+                 frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
+                 reset_identifier_on_seed: bool = True) -> None:
+        super().__init__(env)
+        models = tuple(env.get_attr("nominal_model"))
+        for mdl in models:
+            if not isinstance(mdl, NominalModel):
+                raise IdentifierError(f"sub-env nominal_model {mdl!r} does not follow the "
+                                      f"NominalModel protocol")
+        m0 = models[0]
+        n, m = len(m0.state_names), len(m0.input_names)
+        for mdl in models[1:]:
+            if (len(mdl.state_names), len(mdl.input_names)) != (n, m) or mdl.dt != m0.dt:
+                raise IdentifierError("all sub-envs need nominal models of equal sizes and dt")
+        self.nominal_models = models
+        kind = check_kind(identifier)
+        if config is None:
+            config = preset(PRESET_FOR_MODEL.get(getattr(m0, "name", ""), "manipulator"), kind)
+        self.identifier = BatchIdentifier(kind, env.num_envs, n, m, m0.dt, config=config,
+                                          seed=seed)
+        if frozen:
+            self.identifier.freeze()
+        self.reset_identifier_on_seed = bool(reset_identifier_on_seed)
+        self._reset_point = self.identifier.state_dict()
+        self.autoreset_mode = env.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP)
+        if isinstance(self.autoreset_mode, str):
+            self.autoreset_mode = AutoresetMode(self.autoreset_mode)
+        self._physical = [getattr(mdl, "physical_residual", None) for mdl in models]
+        self._is_bicycle = getattr(m0, "name", "") == "bicycle"
+        self._n, self._m = n, m
+        self._x: np.ndarray | None = None
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+
+    # ------------------------------------------------------------------ control
+    def freeze(self) -> None:
+        """Hold all weights; observers keep running."""
+        self.identifier.freeze()
+
+    def unfreeze(self) -> None:
+        """Resume learning."""
+        self.identifier.unfreeze()
+
+    def mark_reset_point(self) -> None:
+        """Make the current learned state the one a seeded reset restores."""
+        self._reset_point = self.identifier.state_dict()
+
+    def _states(self, obs: Any) -> np.ndarray:
+        return np.stack([np.asarray(mdl.state(o), dtype=np.float64).reshape(-1)
+                         for mdl, o in zip(self.nominal_models, obs, strict=True)])
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        """Reset the sub-envs and observers (masked rows only with ``options["reset_mask"]``)."""
+        mask = None
+        if options is not None and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool).copy()
+        obs, infos = self.env.reset(seed=seed, options=options)
+        if seed is not None and self.reset_identifier_on_seed:
+            frozen = self.identifier.frozen
+            self.identifier.load_state_dict(self._reset_point)
+            (self.identifier.freeze if frozen else self.identifier.unfreeze)()
+        x0 = self._states(obs)
+        if mask is None or self._x is None:
+            self.identifier.reset_observer(None, x0)
+            self._x = x0
+            self._autoreset[:] = False
+        else:
+            self.identifier.reset_observer(mask, x0)
+            self._x[mask] = x0[mask]
+            self._autoreset[mask] = False
+        return obs, infos
+
+    def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
+        """Step all sub-envs, then all identifiers in one kernel call."""
+        if self._x is None:
+            raise gym.error.ResetNeeded("VectorIdentifierWrapper: call reset() before step()")
+        obs, rewards, terms, truncs, infos = self.env.step(actions)
+        nn = self.num_envs
+        space = self.env.single_action_space
+        applied = infos.get("applied_action")
+        if applied is not None and np.asarray(infos.get("_applied_action", True)).all():
+            acts = list(np.asarray(applied))
+            space = None  # already what acted
+        else:
+            acts = list(gym.vector.utils.iterate(self.env.action_space, actions))
+        u = np.stack([action_to_input(mdl, space, a)
+                      for mdl, a in zip(self.nominal_models, acts, strict=True)])
+        x = self._x
+        obs_now = self._states(obs)
+        x_next = obs_now.copy()
+        learn = np.ones(nn, dtype=bool)
+        restart = np.zeros(nn, dtype=bool)
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            learn = ~self._autoreset
+            restart = self._autoreset.copy()
+        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
+            done = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
+            if done.any():
+                finals = infos["final_obs"]
+                for i in np.flatnonzero(done):
+                    x_next[i] = np.asarray(self.nominal_models[i].state(finals[i]),
+                                           dtype=np.float64).reshape(-1)
+                restart = done
+        f = np.stack([np.asarray(mdl.f(x[i], u[i]), dtype=np.float64).reshape(-1)
+                      for i, mdl in enumerate(self.nominal_models)])
+        ident = self.identifier
+        g = ident.step(x, u, f, x_next, learn=learn)
+        valid = learn
+        infos["residual_estimate"] = g
+        infos["_residual_estimate"] = valid.copy()
+        infos["state_estimate"] = ident.x_hat
+        infos["_state_estimate"] = valid.copy()
+        infos["estimation_error"] = ident.x_tilde
+        infos["_estimation_error"] = valid.copy()
+        infos["identifier_frozen"] = np.full(nn, ident.frozen)
+        infos["_identifier_frozen"] = np.ones(nn, dtype=bool)
+        if self._physical[0] is not None:
+            phys = np.stack([np.asarray(pr(x[i], g[i]), dtype=np.float64).reshape(-1)
+                             for i, pr in enumerate(self._physical)])
+            infos["physical_residual_estimate"] = phys
+            infos["_physical_residual_estimate"] = valid.copy()
+            if self._is_bicycle:
+                infos["axle_force_residual_estimate"] = phys.copy()
+                infos["_axle_force_residual_estimate"] = valid.copy()
+        if restart.any():
+            ident.reset_observer(restart, obs_now)
+        self._x = obs_now
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            self._autoreset = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
+        return obs, rewards, terms, truncs, infos
