@@ -170,21 +170,6 @@ def plant_step(s, u, theta, dt, n_sub):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def true_residual(s, u, theta):  # pragma: no cover - compiled
-    """True g(x, u) = dx/dt_true − f_nom(x, u) at plant state s, commanded input u.
-
-    The nominal uses the plant array's vehicle parameters and the commanded steering; with
-    the spec's plant (same parameters) this is K·Delta with Delta the tire-force deviation.
-    """
-    d = plant_derivative(s, u, theta)
-    f = nominal_derivative(s[:2], u, theta)
-    out = np.empty(2)
-    out[0] = d[0] - f[0]
-    out[1] = d[1] - f[1]
-    return out
-
-
-@njit(cache=True)
 def true_residual_vs(s, u, theta, theta_nom):  # pragma: no cover - compiled
     """Compute the true g(x, u) against a nominal with other vehicle parameters.
 
@@ -197,6 +182,16 @@ def true_residual_vs(s, u, theta, theta_nom):  # pragma: no cover - compiled
     out[0] = d[0] - f[0]
     out[1] = d[1] - f[1]
     return out
+
+
+@njit(cache=True)
+def true_residual(s, u, theta):  # pragma: no cover - compiled
+    """True g(x, u) = dx/dt_true − f_nom(x, u) at plant state s, commanded input u.
+
+    The nominal uses the plant array's vehicle parameters and the commanded steering; with
+    the spec's plant (same parameters) this is K·Delta with Delta the tire-force deviation.
+    """
+    return true_residual_vs(s, u, theta, theta)
 
 
 def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | None = None,
