@@ -54,6 +54,12 @@ from simgap.recordings import Recording, RecordingError, read_recording, recordi
 MODELS = ("manipulator2dof", "bicycle")
 
 
+#: The remainder left by the named effects is located when its RMS exceeds this many noise
+#: floors and its mean square this share of the channel's residual.
+REMAINDER_NOISE_FACTOR = 2.0
+REMAINDER_SHARE = 0.1
+
+
 class DiagnosisError(ValueError):
     """Bad input to the diagnosis (unknown model or parameter, unusable recording)."""
 
@@ -241,11 +247,22 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
     significant = any(s.significant for s in stats) or bool(entries)
     segs, regs = [], []
     variables = system.locate_variables()
+    # what the named effects leave over (stick phases masked as in the fit): the spec asks
+    # for "where it sits" of what no term explains, so it is located too
+    remainder = (fitter.r - sel.fit.total(fitter.n, fitter.c)) * fitter.mask
     for i, s in enumerate(stats):
-        if s.significant or any(e["channel"] == s.channel for e in entries):
+        named_here = any(e["channel"] == s.channel for e in entries)
+        if s.significant or named_here:
             segs += locate.segments(res.t, res.residual[:, i], s.noise_rms, s.channel)
-            regs += locate.regions(s.channel, system.channel_units[i], res.residual[:, i],
-                                   variables)
+            regs += [dict(reg, of="residual") for reg in locate.regions(
+                s.channel, system.channel_units[i], res.residual[:, i], variables)]
+        rem_ms = float(np.mean(remainder[:, i] ** 2))
+        raw_ms = float(np.mean(fitter.r[:, i] ** 2))
+        if (named_here and rem_ms > (REMAINDER_NOISE_FACTOR * s.noise_rms) ** 2
+                and rem_ms > REMAINDER_SHARE * raw_ms):
+            regs += [dict(reg, of="unexplained", text=f"unexplained remainder: {reg['text']}")
+                     for reg in locate.regions(s.channel, system.channel_units[i],
+                                               remainder[:, i], variables)]
     comp = compare(system, fitted, fitter.t_split, horizon)
     if isinstance(system, BicycleSystem):
         vx_mean = float(np.mean(system.sig["vx"]))

@@ -94,3 +94,18 @@ def test_out_of_vocabulary_not_forced() -> None:
     assert rep.significant
     assert rep.data["mismatch"]["segments"], "the mismatch must be located"
     assert rep.data["unexplained_fraction"] >= 0.3, rep.effects
+    # ... and what stays unexplained is located too (spec: "with where it sits in mismatch")
+    left = [r for r in rep.data["mismatch"]["regions"] if r["of"] == "unexplained"]
+    assert left, rep.data["mismatch"]["regions"]
+    assert all(r["text"].startswith("unexplained remainder") for r in left)
+
+
+def test_explained_recording_has_no_unexplained_region() -> None:
+    """When the named effect explains the residual, no remainder region is invented."""
+    from simgap.diagnosis.generate import generate_manipulator
+    from simgap.diagnosis.pipeline import diagnose
+
+    rec = generate_manipulator([InjectedEffect(effect="coulomb_friction", channel="joint2",
+                                               params={"Fc": 0.3})], duration=10.0, seed=1)
+    regions = diagnose(rec, "manipulator2dof").data["mismatch"]["regions"]
+    assert regions and all(r["of"] == "residual" for r in regions), regions
