@@ -45,18 +45,6 @@ def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str)
     return out
 
 
-def check_positive(name: str, value: object, unit: str, *, allow_zero: bool = False) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming the argument and its unit."""
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number ({unit}), got {value!r}") from None
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        kind = "non-negative" if allow_zero else "positive"
-        raise ValueError(f"{name} must be a finite {kind} number ({unit}), got {value!r}")
-    return v
-
-
 def check_count(name: str, value: object) -> int:
     """Return ``value`` as an int >= 1, or raise ``ValueError``."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) < 1:

@@ -14,18 +14,17 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from simgap.envs._common import (
     check_count,
     check_pair,
-    check_positive,
     check_render_mode,
     prepare_action,
 )
+from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import YawRateReference
+from simgap.models.base import validate_positive
 from simgap.models.bicycle import (
     BicycleNominal,
     BicycleParams,
@@ -52,7 +51,7 @@ def _resolve_tire(tire: str | MagicFormulaTire | None) -> MagicFormulaTire | Non
                      f"or pass a MagicFormulaTire")
 
 
-class BicycleTireEnv(gym.Env):
+class BicycleTireEnv(PlantEnv):
     """Single-track vehicle at constant speed tracking a yaw-rate reference.
 
     * Observation (vy, r): lateral velocity at the CG (m/s) and yaw rate (rad/s), float64.
@@ -110,10 +109,10 @@ class BicycleTireEnv(gym.Env):
                  max_sideslip: float = 0.35) -> None:
         self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
         self.vx = check_vx(vx)
-        self.dt = check_positive("dt", dt, "s")
+        self.dt = validate_positive("dt", dt, "s")
         self.n_substeps = check_count("n_substeps", n_substeps)
         self.steer_limit = check_pair("steer_limit", steer_limit, "rad")
-        self.max_sideslip = check_positive("max_sideslip", max_sideslip, "rad")
+        self.max_sideslip = validate_positive("max_sideslip", max_sideslip, "rad")
         if self.max_sideslip >= math.pi / 2:
             raise ValueError(f"max_sideslip must be below pi/2 rad, got {max_sideslip!r}")
         for name, p in (("true_params", true_params), ("nominal_params", nominal_params)):
@@ -121,7 +120,7 @@ class BicycleTireEnv(gym.Env):
                 raise ValueError(f"{name} must be BicycleParams or None, got {p!r}")
         truth = true_params if true_params is not None else BicycleParams()
         if mu is not None:
-            truth = replace(truth, mu=check_positive("mu", mu, "-"))
+            truth = replace(truth, mu=validate_positive("mu", mu, "-"))
         self.true_params = truth
         self.mu = truth.mu
         self.nominal_params = nominal_params if nominal_params is not None else BicycleParams()
@@ -141,31 +140,10 @@ class BicycleTireEnv(gym.Env):
 
         self._theta_nom = np.concatenate([self.nominal_params.array, [self.vx]])
         self._k_inv = np.ascontiguousarray(self.nominal_model.K_inv)
-        self._low = -self.steer_limit
-        self._high = self.steer_limit.copy()
-        self._zero_u = np.zeros(2)
         self._vy_max = self.vx * math.tan(self.max_sideslip)
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(2,), dtype=np.float64)
-        self.action_space = spaces.Box(self._low.astype(np.float32),
-                                       self._high.astype(np.float32), dtype=np.float32)
-        self._s = np.zeros(6)
-        self._k = 0
-        self._last_u = np.zeros(2)
-        self._renderer = None
-
-    @property
-    def t(self) -> float:
-        """Current time (s): number of steps since reset × dt."""
-        return self._k * self.dt
-
-    @property
-    def plant_state(self) -> np.ndarray:
-        """Copy of the 6-entry plant state.
-
-        (vy, r, alpha_f_lag, alpha_r_lag, delta_f_act, delta_r_act) in m/s, rad/s, rad, rad,
-        rad, rad.
-        """
-        return self._s.copy()
+        # plant state (vy, r, alpha_f_lag, alpha_r_lag, delta_f_act, delta_r_act) in m/s,
+        # rad/s, rad, rad, rad, rad
+        self._init_plant(2, 6, -self.steer_limit, self.steer_limit.copy())
 
     def _info(self, g: np.ndarray, t: float, r_ref: float, u: np.ndarray) -> dict[str, Any]:
         delta = self._k_inv @ g
@@ -210,24 +188,16 @@ class BicycleTireEnv(gym.Env):
         terminated = not (abs(s_new[0]) <= self._vy_max and math.isfinite(s_new[1]))
         return s_new[:2].copy(), reward, terminated, False, self._info(g, t, r_ref, u)
 
-    def render(self) -> np.ndarray | None:
-        """``rgb_array``: HxWx3 uint8 top view with true (red) and linear (gray) axle forces."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
-            return None
-        if self._renderer is None:
-            from simgap.envs.rendering import CarRenderer
+    def _make_renderer(self) -> Any:
+        from simgap.envs.rendering import CarRenderer
 
-            self._renderer = CarRenderer(self.true_params.lf, self.true_params.lr)
+        return CarRenderer(self.true_params.lf, self.true_params.lr)
+
+    def _draw(self) -> np.ndarray:
+        """Top view with true (red) and linear (gray) axle forces."""
         fyf, fyr, af, ar = plant_forces(self._s, self._last_u, self.plant_theta)
         p = self.nominal_params
         delta = self._s[4:6] if self.plant_theta[14] > 0 else self._last_u
         return self._renderer.draw(self.vx, self._s[0], self._s[1], delta,
                                    np.array([fyf, fyr]), np.array([p.C_af * af, p.C_ar * ar]),
                                    self.t)
-
-    def close(self) -> None:
-        """Release the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None

@@ -14,18 +14,17 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from simgap.envs._common import (
     check_count,
     check_pair,
-    check_positive,
     check_render_mode,
     prepare_action,
 )
+from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import QuinticReference, _sample_reference
+from simgap.models.base import validate_positive
 from simgap.models.friction import FrictionParams, resolve_friction
 from simgap.models.manipulator import (
     JointDisturbance,
@@ -38,7 +37,7 @@ from simgap.models.manipulator import (
 )
 
 
-class ManipulatorFrictionEnv(gym.Env):
+class ManipulatorFrictionEnv(PlantEnv):
     """Two-link arm in a vertical plane tracking a joint reference, with unmodelled friction.
 
     * Observation (q1, q2, dq1, dq2) in rad, rad, rad/s, rad/s (float64, unbounded Box).
@@ -94,11 +93,11 @@ class ManipulatorFrictionEnv(gym.Env):
                  torque_limit: float | tuple[float, float] = 50.0,
                  init_noise: float = 0.0, max_speed: float = 100.0) -> None:
         self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
-        self.dt = check_positive("dt", dt, "s")
+        self.dt = validate_positive("dt", dt, "s")
         self.n_substeps = check_count("n_substeps", n_substeps)
         self.torque_limit = check_pair("torque_limit", torque_limit, "N·m")
-        self.init_noise = check_positive("init_noise", init_noise, "rad", allow_zero=True)
-        self.max_speed = check_positive("max_speed", max_speed, "rad/s")
+        self.init_noise = validate_positive("init_noise", init_noise, "rad", allow_zero=True)
+        self.max_speed = validate_positive("max_speed", max_speed, "rad/s")
         self.friction = resolve_friction(friction)
         if disturbance is not None and not isinstance(disturbance, JointDisturbance):
             raise ValueError(f"disturbance must be a JointDisturbance or None, got "
@@ -118,31 +117,12 @@ class ManipulatorFrictionEnv(gym.Env):
         # Precomputed kernel arrays (the hot path allocates nothing it does not return).
         self.plant_theta = plant_array(self.true_params, self.friction, self.disturbance)
         self._la_nom = np.ascontiguousarray(self.nominal_params.array)
-        self._low = -self.torque_limit
-        self._high = self.torque_limit.copy()
-        self._zero_u = np.zeros(2)
         sample = getattr(self.reference, "sample", None)
         self._ref_sample = sample if sample is not None \
             else partial(_sample_reference, self.reference)
 
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(4,), dtype=np.float64)
-        self.action_space = spaces.Box(self._low.astype(np.float32),
-                                       self._high.astype(np.float32), dtype=np.float32)
-        self._s = np.zeros(4)
-        self._k = 0
-        self._last_u = np.zeros(2)
-        self._renderer = None
-
-    # ------------------------------------------------------------------ state
-    @property
-    def t(self) -> float:
-        """Current time (s): number of steps since reset × dt."""
-        return self._k * self.dt
-
-    @property
-    def plant_state(self) -> np.ndarray:
-        """Copy of the plant state s = (q1, q2, dq1, dq2) (rad, rad/s)."""
-        return self._s.copy()
+        # plant state s = (q1, q2, dq1, dq2) (rad, rad/s)
+        self._init_plant(4, 4, -self.torque_limit, self.torque_limit.copy())
 
     def _info(self, g: np.ndarray, tau: np.ndarray, t: float, ref: np.ndarray,
               u: np.ndarray) -> dict[str, Any]:
@@ -193,20 +173,12 @@ class ManipulatorFrictionEnv(gym.Env):
                           and math.isfinite(s_new[0]) and math.isfinite(s_new[1]))
         return s_new.copy(), reward, terminated, False, self._info(g, tau, t, ref, u)
 
-    def render(self) -> np.ndarray | None:
-        """``rgb_array``: HxWx3 uint8 side view of the arm (blue) and its reference (gray)."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
-            return None
-        if self._renderer is None:
-            from simgap.envs.rendering import ArmRenderer
+    def _make_renderer(self) -> Any:
+        from simgap.envs.rendering import ArmRenderer
 
-            self._renderer = ArmRenderer(self.true_params.l, self.true_params.l)
+        return ArmRenderer(self.true_params.l, self.true_params.l)
+
+    def _draw(self) -> np.ndarray:
+        """Side view of the arm (blue) and its reference (gray)."""
         ref = np.asarray(self._ref_sample(self.t), dtype=np.float64)
         return self._renderer.draw(self._s[:2], ref[:2], self.t, self._last_u)
-
-    def close(self) -> None:
-        """Release the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None

@@ -128,9 +128,25 @@ class MechanicalNominalModel(BaseNominalModel):
         return self.M(q) @ ddq + self.bias(q, dq)
 
 
-def validate_positive(name: str, value: float, *, allow_zero: bool = False) -> None:
-    """Raise ``ValueError`` unless ``value`` is a finite positive (or non-negative) number."""
-    v = float(value)
+def validate_positive(name: str, value: object, unit: str = "", *,
+                      allow_zero: bool = False) -> float:
+    """Return ``value`` as a float if it is a finite positive (or non-negative) number.
+
+    Args:
+        name: argument name used in the message.
+        value: the value to check.
+        unit: its SI unit, named in the message (optional).
+        allow_zero: accept 0.
+
+    Raises:
+        ValueError: naming the argument, its unit and the bad value.
+    """
+    what = f" ({unit})" if unit else ""
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number{what}, got {value!r}") from None
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         kind = "non-negative" if allow_zero else "positive"
-        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
+        raise ValueError(f"{name} must be a finite {kind} number{what}, got {value!r}")
+    return v

@@ -1,0 +1,74 @@
+"""What the simgap envs share: time keeping, the plant state, the Box spaces, the renderer.
+
+Subclasses set ``dt``, ``render_mode``, call :meth:`PlantEnv._init_plant` at the end of
+their constructor, and implement ``reset``, ``step``, :meth:`_make_renderer` and
+:meth:`_draw`. Physics stays in :mod:`simgap.models`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+
+class PlantEnv(gym.Env):
+    """Base of the simgap envs (not registered itself)."""
+
+    dt: float
+    render_mode: str | None
+
+    def _init_plant(self, n_obs: int, n_plant: int, low: np.ndarray, high: np.ndarray) -> None:
+        """Set the spaces (unbounded float64 observation, float32 action box) and the state.
+
+        Args:
+            n_obs: observation size.
+            n_plant: size of the plant state integrated by the kernels.
+            low: action lower bounds (float64, physical units).
+            high: action upper bounds.
+        """
+        self._low = low
+        self._high = high
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float64)
+        self.action_space = spaces.Box(low.astype(np.float32), high.astype(np.float32),
+                                       dtype=np.float32)
+        self._zero_u = np.zeros(low.shape[0])
+        self._s = np.zeros(n_plant)
+        self._k = 0
+        self._last_u = np.zeros(low.shape[0])
+        self._renderer: Any = None
+
+    @property
+    def t(self) -> float:
+        """Current time (s): number of steps since reset × dt."""
+        return self._k * self.dt
+
+    @property
+    def plant_state(self) -> np.ndarray:
+        """Copy of the plant state (layout in the subclass docstring)."""
+        return self._s.copy()
+
+    def _make_renderer(self) -> Any:
+        """Create the renderer (subclasses)."""
+        raise NotImplementedError
+
+    def _draw(self) -> np.ndarray:
+        """Draw the current state with ``self._renderer`` (subclasses)."""
+        raise NotImplementedError
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: an HxWx3 uint8 picture of the current state (see the subclass)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        if self._renderer is None:
+            self._renderer = self._make_renderer()
+        return self._draw()
+
+    def close(self) -> None:
+        """Release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
