@@ -7,9 +7,7 @@ name with its module, and the function must win.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from simgap._lazy import lazy_exports
 from simgap.envs.rollout import Rollout as Rollout
 from simgap.envs.rollout import rollout as rollout
 
@@ -27,15 +25,4 @@ _LAZY = {
     "open_loop": "simgap.envs.scenarios",
 }
 
-__all__ = sorted([*_LAZY, "Rollout", "rollout"])
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'simgap.envs' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return __all__
+__all__, __getattr__, __dir__ = lazy_exports("simgap.envs", _LAZY, ["Rollout", "rollout"])

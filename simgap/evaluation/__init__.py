@@ -24,8 +24,7 @@ Heavy modules (matplotlib, envs) are imported lazily.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from simgap._lazy import lazy_exports
 
 _LAZY = {
     "Transitions": "simgap.evaluation.reproducibility",
@@ -46,15 +45,4 @@ _LAZY = {
     "EvaluationError": "simgap.evaluation.errors",
 }
 
-__all__ = sorted(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'simgap.evaluation' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return __all__
+__all__, __getattr__, __dir__ = lazy_exports("simgap.evaluation", _LAZY)

@@ -14,9 +14,7 @@ point.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from simgap._lazy import lazy_exports
 from simgap.highway.registration import (  # noqa: F401 - re-exported via __all__
     HIGHWAY_LANE_KEEPING_ID,
     register_highway_envs,
@@ -28,15 +26,5 @@ _LAZY = {
     "HighwayBicycleNominal": "simgap.highway.lane_keeping",
 }
 
-__all__ = sorted([*_LAZY, "HIGHWAY_LANE_KEEPING_ID", "register_highway_envs"])
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'simgap.highway' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
-
-
-def __dir__() -> list[str]:
-    return __all__
+__all__, __getattr__, __dir__ = lazy_exports(
+    "simgap.highway", _LAZY, ["HIGHWAY_LANE_KEEPING_ID", "register_highway_envs"])
