@@ -80,6 +80,17 @@ def _all_finite(a):  # pragma: no cover - compiled
     return True
 
 
+@njit(cache=True, inline="always")
+def _row_inputs(x, u, f, x_next, i, n, m):  # pragma: no cover - compiled
+    """Row i's slices of the flat inputs, and whether they are all finite."""
+    xi = x[i * n:(i + 1) * n]
+    ui = u[i * m:(i + 1) * m]
+    fi = f[i * n:(i + 1) * n]
+    xni = x_next[i * n:(i + 1) * n]
+    ok = _all_finite(xi) and _all_finite(ui) and _all_finite(fi) and _all_finite(xni)
+    return xi, ui, fi, xni, ok
+
+
 _OBS_SIG = int64(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[::1],
                  float64[::1], float64[::1], int8[::1])
 
@@ -121,11 +132,8 @@ def observer_step(theta, out, x, u, f, x_next, hp, active):  # pragma: no cover 
             continue
         th = theta[i]
         o = out[i]
-        xi = x[i * n:(i + 1) * n]
-        ui = u[i * m:(i + 1) * m]
-        fi = f[i * n:(i + 1) * n]
-        xni = x_next[i * n:(i + 1) * n]
-        if not (_all_finite(xi) and _all_finite(ui) and _all_finite(fi) and _all_finite(xni)):
+        xi, ui, fi, xni, ok = _row_inputs(x, u, f, x_next, i, n, m)
+        if not ok:
             o[o_st] = STATUS_BAD_INPUT
             nfail += 1
             continue
@@ -212,11 +220,8 @@ def minibatch_step(theta, out, x, u, f, x_next, hp, active, buf, cnt):  # pragma
             continue
         th = theta[i]
         o = out[i]
-        xi = x[i * n:(i + 1) * n]
-        ui = u[i * m:(i + 1) * m]
-        fi = f[i * n:(i + 1) * n]
-        xni = x_next[i * n:(i + 1) * n]
-        if not (_all_finite(xi) and _all_finite(ui) and _all_finite(fi) and _all_finite(xni)):
+        xi, ui, fi, xni, ok = _row_inputs(x, u, f, x_next, i, n, m)
+        if not ok:
             o[o_st] = STATUS_BAD_INPUT
             nfail += 1
             continue
