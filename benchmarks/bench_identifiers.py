@@ -6,8 +6,10 @@
   mean, p50, p99, p99.9, max in µs. Baseline 2's burst steps (those with an SGD update)
   are also reported separately, and for the observer laws the mean of the bare numba
   kernel call (N = 1) on the same transitions, to split dispatch from Python overhead.
-* batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (and the
-  bare kernel call without the Python wrapper); best and median of 5 repeats.
+* batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (the API call,
+  which splits the rows of the observer laws over numba's threads from 256 rows up), and the
+  bare kernel calls without the Python wrapper on one thread and on all threads; best and
+  median of 5 repeats.
 * wrapped env loop: steps/s of ``IdentifierWrapper(gym.make(id))`` with a fixed action,
   next to the bare env's steps/s; best and median of 5 repeats.
 
@@ -26,6 +28,7 @@ import platform
 import time
 
 import gymnasium as gym
+import numba
 import numpy as np
 from rich.console import Console
 
@@ -90,8 +93,7 @@ def per_step(kind: str, x, u, f, runs: int) -> dict:
     out = {"all": stats(times)}
     if kind != "minibatch":  # the same transitions through the bare kernel call (N = 1)
         ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
-        args = [(ident._theta, ident._out, xk, uk, fk, xn, ident._hp, ident._active)
-                for xk, uk, fk, xn in rows]
+        args = [(ident._state, xk, uk, fk, xn) for xk, uk, fk, xn in rows]
         kern = K.observer_step
         t0 = time.perf_counter()
         for a in args:
@@ -126,8 +128,11 @@ def batched(kind: str, n_env: int, reps: int) -> dict:
            "api_us_per_instance_step": timed(lambda: ident.step(x, u, f, xn))}
     if kind != "minibatch":
         xf, uf, ff, xnf = (a.reshape(-1) for a in (x, u, f, xn))
-        args = (ident._theta, ident._out, xf, uf, ff, xnf, ident._hp, ident._active)
-        res["kernel_us_per_instance_step"] = timed(lambda: K.observer_step(*args))
+        args = (ident._state, xf, uf, ff, xnf)
+        res["kernel_one_thread_us_per_instance_step"] = timed(lambda: K.observer_step(*args))
+        res["kernel_all_threads_us_per_instance_step"] = timed(
+            lambda: K.observer_step_parallel(*args))
+        res["threads"] = numba.get_num_threads()
     return res
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from simgap.control.compensation import ResidualNetwork
-from simgap.identifiers.network import tanh as fast_tanh
+from simgap.identifiers.activation import tanh_scalar as fast_tanh
 from simgap.models.bicycle import BicycleNominal, plant_derivative
 
 

@@ -85,9 +85,12 @@ non-finite or a weight norm exceeds ``config.max_weight_norm``; the identifier t
 last good state (nothing half-written).
 
 Batched use (vector envs): :class:`BatchIdentifier` holds N identifiers of one kind in arrays
-of shape (N, …) and advances them with the same numba kernel (``N = 1`` for one env); its
+of shape (N, …) and advances them with the same numba row code (``N = 1`` for one env); its
 ``step(x, u, f, x_next, learn=None)`` takes (N, ·) arrays and a boolean mask of the rows that
-are real transitions (rows with ``learn[i] == False`` change nothing at all).
+are real transitions (rows with ``learn[i] == False`` change nothing at all). From
+``PARALLEL_MIN_ROWS`` = 256 rows up, the observer laws split the rows over numba's threads
+(``numba.set_num_threads`` limits them); rows are independent, so the result is the same bit
+for bit. The threaded kernel is compiled on first use (≈ 10 s once; cached afterwards).
 """
 
 from simgap.identifiers.batch import BatchIdentifier

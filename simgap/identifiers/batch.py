@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from simgap.identifiers import io
+from simgap.identifiers import kernels as K
 from simgap.identifiers.config import IdentifierConfig
 from simgap.identifiers.core import IdentifierBase
 from simgap.identifiers.errors import IdentifierError
@@ -31,7 +32,6 @@ class BatchIdentifier(IdentifierBase):
     def __init__(self, kind: str, n_envs: int, n_states: int, n_inputs: int, dt: float, *,
                  config: IdentifierConfig | None = None, seed: int = 0) -> None:
         super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=n_envs)
-        self._act_buf = np.empty(self.n_envs, dtype=np.int8)
 
     def step(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray,
              learn: np.ndarray | None = None) -> np.ndarray:
@@ -48,20 +48,21 @@ class BatchIdentifier(IdentifierBase):
         Returns:
             ĝ_k, shape (N, n) (rows with ``learn`` False hold their previous values).
         """
+        on = K.FROZEN if self._frozen else K.LEARN
         if learn is None:
-            active = self._active
+            if self._masked:
+                self._act[:] = on
+                self._masked = False
         else:
             lm = np.asarray(learn, dtype=bool).reshape(-1)
             if lm.size != self.n_envs:
                 raise IdentifierError(f"learn mask needs {self.n_envs} entries, got {lm.size}")
-            act = self._act_buf
-            act[:] = 0
-            act[lm] = 1 if self._frozen else 2
-            active = act
-        self._run(self._flat(x), self._flat(u), self._flat(f), self._flat(x_next), active)
-        self.n_steps += 1
+            np.copyto(self._act, np.where(lm, on, K.SKIP))
+            self._masked = True
+        self._run(self._flat(x), self._flat(u), self._flat(f), self._flat(x_next))
+        self._py_steps += 1
         if not self._frozen and not self._minibatch:
-            self.n_updates += 1
+            self._py_updates += 1
         return self._field("g").copy()
 
     @staticmethod
@@ -102,18 +103,15 @@ class BatchIdentifier(IdentifierBase):
         sel = np.arange(self.n_envs) if rows is None else np.asarray(rows)
         if sel.dtype == bool:
             sel = np.flatnonzero(sel)
-        a = self._nw + self._nv
         n = self.n_states
         if x0 is None:
-            self._theta[sel, a:a + 2 * n + 1] = 0.0
+            self._set_observer(sel, None)
             return
         x0a = np.asarray(x0, dtype=np.float64)
         if x0a.shape != (self.n_envs, n) or not np.all(np.isfinite(x0a[sel])):
             raise IdentifierError(f"reset_observer: x0 must be finite with shape "
                                   f"({self.n_envs}, {n}), got {x0a.shape}")
-        self._theta[sel, a:a + n] = x0a[sel]
-        self._theta[sel, a + n:a + 2 * n] = 0.0
-        self._theta[sel, -1] = 1.0
+        self._set_observer(sel, x0a[sel])
 
     @property
     def W(self) -> np.ndarray:  # noqa: N802

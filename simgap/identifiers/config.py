@@ -14,7 +14,7 @@ Choices the thesis leaves open (see ``spec/thesis-errata.md``), made here once:
   residual-space gradient instead (η/Δt² here) diverges: measured, IdentifierDivergedError
   within the first 10 s of the thesis manipulator case.
 * Divergence: :class:`~simgap.identifiers.errors.IdentifierDivergedError` once Ŵ, V̂ or x̂
-  is non-finite or ‖Ŵ‖_F or ‖V̂‖_F exceeds ``max_weight_norm`` (default 1e6, five orders of
+  is non-finite or √(‖Ŵ‖_F² + ‖V̂‖_F²) exceeds ``max_weight_norm`` (default 1e6, five orders of
   magnitude above anything the thesis settings reach on its cases).
 """
 
@@ -52,7 +52,7 @@ class IdentifierConfig:
         buffer_size: sliding-window length B of baseline 2 (transitions).
         batch_size: mini-batch size M of baseline 2.
         update_period: P_upd, steps between baseline-2 SGD updates.
-        max_weight_norm: divergence bound on ‖Ŵ‖_F and ‖V̂‖_F.
+        max_weight_norm: divergence bound on √(‖Ŵ‖_F² + ‖V̂‖_F²) (so on each of them).
     """
 
     n_hidden: int = 20

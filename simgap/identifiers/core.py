@@ -1,7 +1,7 @@
 """Shared machinery of ``Identifier`` and ``BatchIdentifier``.
 
-N identifiers of one kind live in flat arrays (layout in :mod:`simgap.identifiers.kernels`)
-and are advanced by one numba kernel call.
+N identifiers of one kind live in one (N, row_size) float64 array (layout in
+:mod:`simgap.identifiers.kernels`) and are advanced by one numba kernel call.
 """
 
 from __future__ import annotations
@@ -17,8 +17,12 @@ from simgap.identifiers.errors import IdentifierDivergedError, IdentifierError
 from simgap.identifiers.minibatch import DUE, FILLED
 from simgap.identifiers.network import init_weights
 
+#: Observer-law batches from this many rows up run on all of numba's threads (the rows are
+#: independent, so the result is the same bit for bit); smaller ones on the calling thread.
+PARALLEL_MIN_ROWS = 256
+
 #: Format tag written into saved files.
-FORMAT = "simgap-identifier/1"
+FORMAT = "simgap-identifier/2"
 
 
 def _check_int(name: str, v: Any) -> int:
@@ -61,11 +65,11 @@ class IdentifierBase:
         self.n_in = p = n + m
         self._nw = n * h
         self._nv = h * p
-        self._o = K.out_offsets(n, h, p)
-        size_p, size_q = K.layout_sizes(n, h, m)
+        self._lay = lay = K.layout(n, m, h)
         nn = self.n_envs
-        self._theta = np.zeros((nn, size_p))
-        self._out = np.zeros((nn, size_q))
+        # one identifier: scratch columns after the state (no allocation per kernel call)
+        scratch = K.scratch_layout.py_func(n, m, h)[-1] if nn == 1 else 0
+        self._state = np.zeros((nn, lay["size"] + scratch))
         hp = np.zeros(K.HP_SIZE)
         hp[K.HP_DT] = dt
         hp[K.HP_AD] = config.a_d
@@ -75,20 +79,20 @@ class IdentifierBase:
         hp[K.HP_RHO2] = config.rho2
         hp[K.HP_LAM] = config.lam
         hp[K.HP_MAXN] = config.max_weight_norm
+        hp[K.HP_N] = n
+        hp[K.HP_M] = m
         hp[K.HP_H] = h
         hp[K.HP_MODE] = KIND_CODES[kind]
         hp[K.HP_PERIOD] = config.update_period
-        hp[K.HP_N] = n
-        hp[K.HP_M] = m
         self._hp = hp
         self._minibatch = kind == "minibatch"
-        if self._minibatch:
-            self._buf = np.zeros((nn, config.buffer_size, p + n))
-            self._cnt = np.zeros((nn, K.N_COUNTERS), dtype=np.int64)
-        else:
-            self._buf = np.zeros((nn, 1, p + n))
-            self._cnt = np.zeros((nn, K.N_COUNTERS), dtype=np.int64)
-        self._active = np.full(nn, 2, dtype=np.int8)
+        size = config.buffer_size if self._minibatch else 1
+        self._buf = np.zeros((nn, size, p + n))
+        self._cnt = np.zeros((nn, K.N_COUNTERS), dtype=np.int64)
+        self._act = self._state[:, K.HP_ACT]
+        #: Batches of at least PARALLEL_MIN_ROWS rows are split over numba's threads.
+        self._observer_kernel = (K.observer_step_parallel if nn >= PARALLEL_MIN_ROWS
+                                 else K.observer_step)
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -100,17 +104,29 @@ class IdentifierBase:
         """
         w0, v0 = init_weights(self.seed, self.n_states, self.n_hidden, self.n_in,
                               self.config.w0_scale, self.config.v0_scale)
-        self._theta[:] = 0.0
-        self._theta[:, :self._nw] = w0.ravel()
-        self._theta[:, self._nw:self._nw + self._nv] = v0.ravel()
-        self._out[:] = 0.0
+        ow = self._lay["ow"]
+        self._state[:] = 0.0
+        self._state[:, :K.HP_SIZE] = self._hp
+        self._state[:, ow:ow + self._nw] = w0.ravel()
+        self._state[:, ow + self._nw:ow + self._nw + self._nv] = v0.T.ravel()
         self._buf[:] = 0.0
         self._cnt[:] = 0
         self._rng = sampling_rng(self.seed)
         self._frozen = False
-        self._active[:] = 2
-        self.n_steps = 0
-        self.n_updates = 0
+        self._masked = False
+        self._act[:] = K.LEARN
+        self._py_steps = 0
+        self._py_updates = 0
+
+    @property
+    def n_steps(self) -> int:
+        """Calls of ``step`` since construction / :meth:`reset` that succeeded."""
+        return self._py_steps
+
+    @property
+    def n_updates(self) -> int:
+        """Learning steps taken (SGD bursts for baseline 2)."""
+        return self._py_updates
 
     @property
     def frozen(self) -> bool:
@@ -120,28 +136,25 @@ class IdentifierBase:
     def freeze(self) -> None:
         """Stop every weight, buffer and z update; the observer x̂ keeps running."""
         self._frozen = True
-        self._active[:] = 1
+        self._act[:] = K.FROZEN
 
     def unfreeze(self) -> None:
         """Resume learning."""
         self._frozen = False
-        self._active[:] = 2
+        self._act[:] = K.LEARN
 
     # ------------------------------------------------------------------ kernel calls
-    def _run(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray,
-             active: np.ndarray) -> None:
-        """Advance all rows; raise a typed error naming the failed rows (which are unchanged)."""
+    def _run(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray) -> None:
+        """Advance the active rows; raise a typed error naming the failed rows (unchanged)."""
         try:
             if self._minibatch:
-                r, due = K.minibatch_step(self._theta, self._out, x, u, f, x_next, self._hp,
-                                          active, self._buf, self._cnt)
+                r, due = K.minibatch_step(self._state, x, u, f, x_next, self._buf, self._cnt)
             else:
-                r = K.observer_step(self._theta, self._out, x, u, f, x_next, self._hp, active)
+                r = self._observer_kernel(self._state, x, u, f, x_next)
                 due = 0
         except TypeError:  # not float64 C-contiguous 1-D: convert once and retry
-            x, u, f, x_next = (self._coerce(a, name) for a, name in
-                               ((x, "x"), (u, "u"), (f, "f"), (x_next, "x_next")))
-            return self._run(x, u, f, x_next, active)
+            x, u, f, x_next = (self._coerce(a) for a in (x, u, f, x_next))
+            return self._run(x, u, f, x_next)
         if r != 0:
             self._raise(r, x, u, f, x_next)
         if due:
@@ -155,19 +168,22 @@ class IdentifierBase:
         rows = np.flatnonzero(self._cnt[:, DUE])
         filled = self._cnt[rows, FILLED]
         idx = self._rng.integers(0, filled[:, None], size=(rows.size, self.config.batch_size))
-        nfail = K.minibatch_sgd(self._theta, self._out, self._hp, self._buf, self._cnt,
+        nfail = K.minibatch_sgd(self._state, self._buf, self._cnt,
                                 np.ascontiguousarray(idx, dtype=np.int64), rows.astype(np.int64))
-        self.n_updates += 1
+        self._py_updates += 1
         if nfail:
-            bad = [int(i) for i in rows if self._out[i, -1] == K.STATUS_DIVERGED]
+            status = self._state[rows, K.HP_STATUS]
+            bad = [int(i) for i, st in zip(rows, status, strict=True)
+                   if st == K.STATUS_DIVERGED]
+            self._state[:, K.HP_STATUS] = K.STATUS_OK
             raise IdentifierDivergedError(
                 f"{self.kind} identifier: the SGD update of row(s) {bad} would give a weight "
                 f"norm above max_weight_norm={self.config.max_weight_norm:g} or non-finite; "
                 f"weights kept (lower eta1/eta2)")
 
-    def _coerce(self, a: Any, name: str) -> np.ndarray:
-        arr = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
-        return arr
+    @staticmethod
+    def _coerce(a: Any) -> np.ndarray:
+        return np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
 
     def _raise(self, r: int, x: np.ndarray, u: np.ndarray, f: np.ndarray,
                x_next: np.ndarray) -> None:
@@ -177,12 +193,13 @@ class IdentifierBase:
                 f"{self.kind} identifier: expected x, f, x_next with {nn * n} values "
                 f"({nn}×{n}) and u with {nn * m} ({nn}×{m}); got sizes x={np.size(x)}, "
                 f"u={np.size(u)}, f={np.size(f)}, x_next={np.size(x_next)}")
-        status = self._out[:, -1]
+        status = self._state[:, K.HP_STATUS]
         bad_in = np.flatnonzero(status == K.STATUS_BAD_INPUT)
+        bad = np.flatnonzero((status == K.STATUS_DIVERGED) | (status == K.STATUS_STATE_DIVERGED))
+        status[:] = K.STATUS_OK  # the status flags a failed call, not a state to keep
         if bad_in.size:
             raise IdentifierError(f"{self.kind} identifier: non-finite value in x, u, f or "
                                   f"x_next (row(s) {bad_in.tolist()}); identifier unchanged")
-        bad = np.flatnonzero((status == K.STATUS_DIVERGED) | (status == K.STATUS_STATE_DIVERGED))
         raise IdentifierDivergedError(
             f"{self.kind} identifier diverged in row(s) {bad.tolist()}: the update would make "
             f"x̂ non-finite or a weight norm exceed max_weight_norm="
@@ -190,25 +207,40 @@ class IdentifierBase:
 
     # ------------------------------------------------------------------ views
     def _W(self) -> np.ndarray:  # noqa: N802
-        return self._theta[:, :self._nw].reshape(self.n_envs, self.n_states, self.n_hidden)
+        ow = self._lay["ow"]
+        return self._state[:, ow:ow + self._nw].reshape(self.n_envs, self.n_states,
+                                                        self.n_hidden)
 
     def _V(self) -> np.ndarray:  # noqa: N802
-        return self._theta[:, self._nw:self._nw + self._nv].reshape(
-            self.n_envs, self.n_hidden, self.n_in)
+        ov = self._lay["ow"] + self._nw
+        vt = self._state[:, ov:ov + self._nv].reshape(self.n_envs, self.n_in, self.n_hidden)
+        return vt.transpose(0, 2, 1)
 
     def _field(self, which: str) -> np.ndarray:
         n, p = self.n_states, self.n_in
-        o = self._o
-        start, size = {"g": (o[0], n), "x_bar": (o[1], p), "x_hat": (o[2], n),
-                       "x_tilde": (o[3], n), "e": (o[4], n)}[which]
-        return self._out[:, start:start + size]
+        lay = self._lay
+        start, size = {"g": (lay["og"], n), "x_bar": (lay["oxb"], p),
+                       "x_hat": (lay["oxh1"], n), "x_tilde": (lay["oxt1"], n),
+                       "e": (lay["oe"], n), "z": (lay["oz"], n),
+                       "observer": (lay["oxh"], 2 * n + 1)}[which]
+        return self._state[:, start:start + size]
 
     def _z(self) -> np.ndarray:
-        a = self._nw + self._nv + self.n_states
-        return self._theta[:, a:a + self.n_states]
+        return self._field("z")
 
     def _initialised(self) -> np.ndarray:
-        return self._theta[:, -1] != 0.0
+        return self._state[:, self._lay["oini"]] != 0.0
+
+    def _set_observer(self, sel: np.ndarray | slice, x0: np.ndarray | None) -> None:
+        """x̂ = x0 and z = 0 in rows ``sel`` (x0 None: uninitialised, x̂ = the next x)."""
+        n = self.n_states
+        obs = self._field("observer")  # [x̂ (n) | z (n) | initialised]
+        if x0 is None:
+            obs[sel] = 0.0
+            return
+        obs[sel, :n] = x0
+        obs[sel, n:2 * n] = 0.0
+        obs[sel, 2 * n] = 1.0
 
     def _predict_row(self, row: int, x_bar: Any) -> np.ndarray:
         xb = np.ascontiguousarray(x_bar, dtype=np.float64)
@@ -220,7 +252,7 @@ class IdentifierBase:
         if not np.all(np.isfinite(xb2)):
             raise IdentifierError("x_bar contains non-finite values")
         res = np.empty((xb2.shape[0], self.n_states))
-        K.predict_rows(self._theta[row], self.n_states, self.n_hidden, self.n_in, xb2, res)
+        K.predict_rows(self._state[row], self.n_states, self.n_inputs, self.n_hidden, xb2, res)
         return res[0] if single else res
 
     # ------------------------------------------------------------------ persistence
@@ -232,12 +264,16 @@ class IdentifierBase:
                 "rng_state": self._rng.bit_generator.state}
 
     def _arrays(self) -> dict[str, np.ndarray]:
-        return {"theta": self._theta.copy(), "out": self._out.copy(),
-                "buffer": self._buf.copy(), "counters": self._cnt.copy()}
+        return {"state": self._persistent().copy(), "buffer": self._buf.copy(),
+                "counters": self._cnt.copy()}
+
+    def _persistent(self) -> np.ndarray:
+        """The state rows without any scratch columns."""
+        return self._state[:, :self._lay["size"]]
 
     def _load_arrays(self, meta: dict[str, Any], arrays: dict[str, np.ndarray],
                      source: str) -> None:
-        for key, dst in (("theta", self._theta), ("out", self._out), ("buffer", self._buf),
+        for key, dst in (("state", self._persistent()), ("buffer", self._buf),
                          ("counters", self._cnt)):
             if key not in arrays:
                 raise IdentifierError(f"{source}: missing array {key!r}")
@@ -247,8 +283,12 @@ class IdentifierBase:
                                       f"{dst.shape} for this identifier")
             if key != "counters" and not np.all(np.isfinite(a)):
                 raise IdentifierError(f"{source}: array {key!r} contains non-finite values")
-        self._theta[:] = arrays["theta"]
-        self._out[:] = arrays["out"]
+        hp = np.asarray(arrays["state"])[:, :K.HP_SIZE]
+        fixed = slice(0, K.HP_PERIOD + 1)  # the entries that come from the config
+        if not np.array_equal(hp[:, fixed], np.broadcast_to(self._hp[fixed], hp[:, fixed].shape)):
+            raise IdentifierError(f"{source}: array 'state' holds hyper-parameters that differ "
+                                  f"from its config")
+        self._persistent()[:] = arrays["state"]
         self._buf[:] = arrays["buffer"]
         self._cnt[:] = arrays["counters"]
         rng = sampling_rng(self.seed)
@@ -261,15 +301,16 @@ class IdentifierBase:
             self.freeze()
         else:
             self.unfreeze()
-        self.n_steps = int(meta.get("n_steps", 0))
-        self.n_updates = int(meta.get("n_updates", 0))
+        self._py_steps = int(meta.get("n_steps", 0))
+        self._py_updates = int(meta.get("n_updates", 0))
 
     def state_dict(self) -> dict[str, Any]:
         """Return everything needed for an identical continuation.
 
         ``meta`` (JSON-able dict: kind, sizes, dt, seed, config, frozen, counters,
-        sampling-Generator state) and the raw arrays ``theta``, ``out``, ``buffer``,
-        ``counters`` (copies; layout in :mod:`simgap.identifiers.kernels`).
+        sampling-Generator state) and the raw arrays ``state`` (the state rows without their
+        scratch part), ``buffer``, ``counters`` (copies; layout in
+        :mod:`simgap.identifiers.kernels`).
         """
         d: dict[str, Any] = {"meta": json.loads(json.dumps(self._meta()))}
         d.update(self._arrays())

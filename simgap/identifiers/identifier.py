@@ -15,7 +15,7 @@ from simgap.identifiers import io
 from simgap.identifiers.config import IdentifierConfig
 from simgap.identifiers.core import IdentifierBase
 from simgap.identifiers.errors import IdentifierError
-from simgap.identifiers.kernels import observer_step
+from simgap.identifiers.kernels import HP_NSTEPS, HP_NUPDATES, observer_step
 
 
 class Identifier(IdentifierBase):
@@ -30,14 +30,12 @@ class Identifier(IdentifierBase):
         dt: sampling period Δt (s).
         config: the :class:`~simgap.identifiers.IdentifierConfig`.
         seed: seed of the initial weights (and of baseline 2's sampling Generator).
-        n_steps: transitions passed to :meth:`step` since construction / :meth:`reset`.
-        n_updates: weight updates made (learning steps, or SGD bursts for baseline 2).
     """
 
     def __init__(self, kind: str, n_states: int, n_inputs: int, dt: float, *,
                  config: IdentifierConfig | None = None, seed: int = 0) -> None:
         super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=1)
-        self._g_view = self._out[0, :self.n_states]
+        self._g_view = self._field("g")[0]
         self._xb_view = self._field("x_bar")[0]
         self._xh_view = self._field("x_hat")[0]
         self._xt_view = self._field("x_tilde")[0]
@@ -63,19 +61,25 @@ class Identifier(IdentifierBase):
                 exceed ``config.max_weight_norm`` (identifier unchanged).
         """
         if self._minibatch:
-            self._run(x, u, f, x_next, self._active)
-        else:  # the hot path, inlined: one kernel call
-            try:
-                r = observer_step(self._theta, self._out, x, u, f, x_next, self._hp,
-                                  self._active)
-            except TypeError:  # not float64 C-contiguous 1-D: convert and retry
-                r = -2
-            if r != 0:
-                self._run(x, u, f, x_next, self._active)
-        self.n_steps += 1
-        if not self._frozen and not self._minibatch:
-            self.n_updates += 1
+            self._run(x, u, f, x_next)
+            return self._g_view.copy()
+        try:  # the hot path: one kernel call
+            r = observer_step(self._state, x, u, f, x_next)
+        except TypeError:  # not float64 C-contiguous 1-D: convert and retry
+            r = -2
+        if r:
+            self._run(x, u, f, x_next)  # converts, retries, raises the typed error
         return self._g_view.copy()
+
+    @property
+    def n_steps(self) -> int:
+        """Transitions passed to :meth:`step` (successfully) since construction / reset."""
+        return int(self._state[0, HP_NSTEPS])
+
+    @property
+    def n_updates(self) -> int:
+        """Weight updates made: learning steps, or kept SGD steps for baseline 2."""
+        return int(self._state[0, HP_NUPDATES])
 
     def predict(self, x_bar: np.ndarray) -> np.ndarray:
         """ĝ = Ŵ tanh(V̂ x̄) with the current weights; no state change.
@@ -95,17 +99,13 @@ class Identifier(IdentifierBase):
         Args:
             x0: new x̂ (n,); ``None`` means "x̂ = the x of the next step".
         """
-        a = self._nw + self._nv
         n = self.n_states
-        if x0 is None:
-            self._theta[0, a:a + 2 * n + 1] = 0.0
-            return
-        x0 = np.asarray(x0, dtype=np.float64).reshape(-1)
-        if x0.size != n or not np.all(np.isfinite(x0)):
-            raise IdentifierError(f"reset_observer: x0 must be {n} finite values, got {x0!r}")
-        self._theta[0, a:a + n] = x0
-        self._theta[0, a + n:a + 2 * n] = 0.0
-        self._theta[0, -1] = 1.0
+        if x0 is not None:
+            x0 = np.asarray(x0, dtype=np.float64).reshape(-1)
+            if x0.size != n or not np.all(np.isfinite(x0)):
+                raise IdentifierError(f"reset_observer: x0 must be {n} finite values, "
+                                      f"got {x0!r}")
+        self._set_observer(slice(0, 1), x0)
 
     # attributes ------------------------------------------------------------------
     @property

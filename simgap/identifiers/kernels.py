@@ -1,15 +1,31 @@
 """Numba kernels: one step of N identifiers of one kind at once (N = 1 for a single env).
 
-Memory layout (all float64, C-contiguous; row i is identifier i):
+State layout: one float64 C-contiguous array ``S`` of shape (N, row_size); row i is
+identifier i and holds, at the offsets returned by :func:`row_layout`:
 
-* ``theta`` (N, P): [vec Ŵ (n·n_h) | vec V̂ (n_h·p) | x̂ (n) | z (n) | initialised (1)];
-* ``out`` (N, Q): results and scratch, offsets from :func:`out_offsets`; the last entry is
-  the row's status (:data:`STATUS_OK` …);
-* inputs ``x, u, f, x_next``: flat (N·n,), (N·m,), (N·n,), (N·n,): a single identifier
-  passes its 1-D vectors as they are, a batch passes ``a.reshape(-1)``;
-* ``hp``: hyper-parameters, indices ``HP_*``;
-* ``active`` (N,) int8: 0 = not a transition (row untouched), 1 = frozen (x̂ runs, no
-  weight / z / buffer update), 2 = learn.
+* ``[0 : HP_SIZE]``: hyper-parameters and flags (``HP_*``): Δt, a_d, η1, η2, ρ1, ρ2, λ,
+  max weight norm, n, m, n_h, error-signal code, P_upd, the row's activity (0 = not a
+  transition: row untouched; 1 = frozen: x̂ runs, no weight / z / buffer update; 2 = learn)
+  the status of its last step (``STATUS_*``), and two counters: steps taken and weight
+  updates made;
+* θ: Ŵ (n × n_h) and V̂ᵀ (p × n_h) (layout of :mod:`~simgap.identifiers.network`), x̂ (n),
+  z (n), initialised flag (1);
+* results of the last step: ĝ_k (n), x̄_k (p), x̂_{k+1} (n), x̃_{k+1} (n), e_k (n).
+
+Per-call scratch (working copies of the results, committed only when a row's step succeeds;
+x̃_k, δ, σ, gradient, the backup of the weights; offsets from :func:`scratch_layout`) is one
+array shared by the rows a thread processes, not part of the rows: a batch step then
+streams only the ≈ 2 KB of each row's weights and results through the caches. A single
+identifier instead gives its row extra scratch columns after the state, which saves the
+allocation on every call.
+
+Inputs ``x, u, f, x_next`` are flat float64 arrays of N·n, N·m, N·n, N·n values: a single
+identifier passes its 1-D vectors as they are, a batch passes ``a.reshape(-1)``. Keeping
+the state in one array keeps the kernel call at five arguments: numba's dispatcher costs
+≈ 55 ns per array argument, a large part of a ≈ 1 µs step.
+
+Indices inside the loops are cast to unsigned (``_ix``): numba then drops its negative-
+index wrap-around, and LLVM vectorises the loops over the hidden units.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
@@ -18,22 +34,28 @@ A row that fails (non-finite input, divergence) is left exactly as it was before
 from __future__ import annotations
 
 import numpy as np
-from numba import float64, int8, int64, njit, types
+from numba import float64, int64, njit, prange, types
+from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 from simgap.identifiers.laws import (
     INTEGRAL,
-    norm2,
+    norm_sq,
     observer_delta,
     observer_error,
+    scratch_size,
     unified_update,
     z_filter_step,
 )
 from simgap.identifiers.minibatch import DUE, FILLED, buffer_push, sgd_step
-from simgap.identifiers.network import forward_flat
+from simgap.identifiers.network import forward
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
-HP_H, HP_MODE, HP_PERIOD, HP_N, HP_M = 8, 9, 10, 11, 12
-HP_SIZE = 13
+HP_N, HP_M, HP_H, HP_MODE, HP_PERIOD, HP_ACT, HP_STATUS = 8, 9, 10, 11, 12, 13, 14
+HP_NSTEPS, HP_NUPDATES = 15, 16
+HP_SIZE = 18
+
+#: Activity codes (``S[i, HP_ACT]``).
+SKIP, FROZEN, LEARN = 0.0, 1.0, 2.0
 
 STATUS_OK = 0
 STATUS_BAD_INPUT = 2
@@ -44,239 +66,314 @@ N_COUNTERS = 4
 
 
 @njit(cache=True, inline="always")
-def out_offsets(n, h, p):  # pragma: no cover - compiled
-    """Return the offsets in an ``out`` row.
+def row_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_func)
+    """Offsets in a state row for n states, m inputs, n_h hidden units.
 
-    Order: g, x̄, x̂_{k+1}, x̃_{k+1}, e, x̃_k, δ, σ, z_{k+1}, G_W, G_V, backup of (Ŵ, V̂),
-    status, total size.
+    Returns (ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, size): weights, x̂, z,
+    initialised flag, the results ĝ_k, x̄_k, x̂_{k+1}, x̃_{k+1}, e_k, and the row size.
     """
-    o_g = 0
-    o_xb = o_g + n
-    o_xh = o_xb + p
-    o_xt = o_xh + n
-    o_e = o_xt + n
-    o_xtk = o_e + n
-    o_d = o_xtk + n
-    o_s = o_d + n
-    o_z = o_s + h
-    o_gw = o_z + n
-    o_gv = o_gw + n * h
-    o_bk = o_gv + h * p
-    o_st = o_bk + n * h + h * p
-    return o_g, o_xb, o_xh, o_xt, o_e, o_xtk, o_d, o_s, o_z, o_gw, o_gv, o_bk, o_st, o_st + 1
-
-
-def layout_sizes(n: int, h: int, m: int) -> tuple[int, int]:
-    """(P, Q): row sizes of ``theta`` and ``out`` for n states, n_h hidden, m inputs."""
     p = n + m
-    return n * h + h * p + 2 * n + 1, out_offsets(n, h, p)[-1]
-
-
-@njit(cache=True, inline="always")
-def _all_finite(a):  # pragma: no cover - compiled
-    for k in range(a.shape[0]):
-        if not np.isfinite(a[k]):
-            return False
-    return True
-
-
-@njit(cache=True, inline="always")
-def _row_inputs(x, u, f, x_next, i, n, m):  # pragma: no cover - compiled
-    """Row i's slices of the flat inputs, and whether they are all finite."""
-    xi = x[i * n:(i + 1) * n]
-    ui = u[i * m:(i + 1) * m]
-    fi = f[i * n:(i + 1) * n]
-    xni = x_next[i * n:(i + 1) * n]
-    ok = _all_finite(xi) and _all_finite(ui) and _all_finite(fi) and _all_finite(xni)
-    return xi, ui, fi, xni, ok
-
-
-_OBS_SIG = int64(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[::1],
-                 float64[::1], float64[::1], int8[::1])
-
-
-@njit(_OBS_SIG, cache=True)
-def observer_step(theta, out, x, u, f, x_next, hp, active):  # pragma: no cover - compiled
-    """Advance every row by one Euler step of the observer-based identifiers.
-
-    Eq. 3.1 (errata sign), 3.6-3.9, 4.1, 4.5, 4.6; the time indexing is in the package
-    docstring.
-
-    Returns the number of failed rows, or −1 if the array sizes do not fit.
-    """
-    nn = active.shape[0]
-    n = int(hp[HP_N])
-    m = int(hp[HP_M])
-    h = int(hp[HP_H])
-    p = n + m
-    mode = int(hp[HP_MODE])
-    dt = hp[HP_DT]
-    a_d = hp[HP_AD]
-    o_g, o_xb, o_xh, o_xt, o_e, o_xtk, o_d, o_s, o_z, o_gw, o_gv, o_bk, o_st, q = out_offsets(
-        n, h, p)
-    ow = n * h
-    oxh = ow + h * p
+    ow = HP_SIZE
+    oxh = ow + n * h + h * p
     oz = oxh + n
     oini = oz + n
-    if (x.shape[0] != nn * n or u.shape[0] != nn * m or f.shape[0] != nn * n
-            or x_next.shape[0] != nn * n or theta.shape[0] != nn or out.shape[0] != nn
-            or theta.shape[1] != oini + 1 or out.shape[1] != q):
-        return -1
+    og = oini + 1
+    oxb = og + n
+    oxh1 = oxb + p
+    oxt1 = oxh1 + n
+    oe = oxt1 + n
+    return ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, oe + n
+
+
+@njit(cache=True, inline="always")
+def scratch_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_func)
+    """Offsets in the per-call scratch array.
+
+    Returns (tg, txb, txh1, te, txt, td, ts, tgw, tsc, size): working ĝ_k, x̄_k, x̂_{k+1},
+    e_k, then x̃_k, δ, σ, gradient (n·n_h + p·n_h), update scratch, and the size.
+    """
+    p = n + m
+    tg = 0
+    txb = tg + n
+    txh1 = txb + p
+    te = txh1 + n
+    txt = te + n
+    td = txt + n
+    ts = td + n
+    tgw = ts + h
+    tsc = tgw + n * h + h * p
+    return tg, txb, txh1, te, txt, td, ts, tgw, tsc, tsc + 2 * h + n * h + h * p
+
+
+def layout(n: int, m: int, h: int) -> dict[str, int]:
+    """:func:`row_layout` as a dict of named offsets (Python side)."""
+    names = ("ow", "oxh", "oz", "oini", "og", "oxb", "oxh1", "oxt1", "oe", "size")
+    out = dict(zip(names, row_layout.py_func(n, m, h), strict=True))
+    t = scratch_layout.py_func(n, m, h)
+    assert t[-1] - t[-2] == scratch_size(n, h, n + m)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _finite(a, o, k):  # pragma: no cover - compiled
+    """True if ``a[o : o + k]`` is all finite (branch-free: v·0 is NaN only for inf/NaN)."""
+    acc = 0.0
+    for j in range(k):
+        acc += a[_ix(o + j)] * 0.0
+    return acc == 0.0
+
+
+@njit(cache=True, inline="always")
+def _inputs_ok(x, u, f, x_next, i, n, m):  # pragma: no cover - compiled
+    """Row i's inputs are all finite."""
+    return (_finite(x, i * n, n) and _finite(u, i * m, m) and _finite(f, i * n, n)
+            and _finite(x_next, i * n, n))
+
+
+@njit(cache=True, inline="always")
+def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - compiled
+    """One Euler step of one observer-based identifier (row ``R``, scratch ``T``).
+
+    Eq. 3.1 (errata sign), 3.6-3.9, 4.1, 4.5, 4.6; the time indexing is in the package
+    docstring. Returns the row's status (``STATUS_*``); on failure the row is unchanged.
+    """
+    act = R[HP_ACT]
+    if act == SKIP:
+        return STATUS_OK
+    if not _inputs_ok(x, u, f, x_next, i, n, m):
+        return STATUS_BAD_INPUT
+    p = n + m
+    ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, size = row_layout(n, m, h)
+    tg, txb, txh1, te, txt, td, ts, tgw, tsc, tsize = scratch_layout(n, m, h)
+    io = i * n
+    dt = R[HP_DT]
+    a_d = R[HP_AD]
+    fresh = R[oini] == 0.0  # fresh observer: x̂_k = x_k, z_k = 0
+    for r in range(n):
+        xr = x[_ix(io + r)]
+        xh = xr if fresh else R[_ix(oxh + r)]
+        T[_ix(txb + r)] = xh
+        T[_ix(txt + r)] = xr - xh
+    for c in range(m):
+        T[_ix(txb + n + c)] = u[_ix(i * m + c)]
+    forward(R, ow, n, h, p, T, txb, T, ts, T, tg)  # ĝ_k with the weights before the update
+    mode = int(R[HP_MODE])
+    observer_error(mode, T, txt, R, oz, T, te, n)  # eq. 3.8 / 3.9 (e = z_k)
+    if fresh and mode == INTEGRAL:
+        for r in range(n):
+            T[_ix(te + r)] = 0.0
+    # x̂_{k+1} = x̂_k + Δt (f_k + ĝ_k − A_d x̃_k)   (eq. 3.1 with the errata's sign)
+    for r in range(n):
+        T[_ix(txh1 + r)] = T[_ix(txb + r)] + dt * (f[_ix(io + r)] + T[_ix(tg + r)]
+                                                   - a_d * T[_ix(txt + r)])
+    if not _finite(T, txh1, n):
+        return STATUS_STATE_DIVERGED
+    if act == LEARN:
+        observer_delta(T, te, a_d, td, n)
+        leak = dt * np.sqrt(norm_sq(T, txt, n))
+        if not unified_update(R, ow, n, h, p, T, td, ts, T, txb, dt * R[HP_ETA1],
+                              dt * R[HP_ETA2], leak * R[HP_RHO1], leak * R[HP_RHO2],
+                              R[HP_MAXN], tsc):
+            return STATUS_DIVERGED
+    # nothing can fail from here on: commit the observer state and the results
+    if fresh:
+        for r in range(n):
+            R[_ix(oz + r)] = 0.0
+    if act == LEARN and mode == INTEGRAL:
+        z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
+    for r in range(n):
+        xh1 = T[_ix(txh1 + r)]
+        R[_ix(oxh + r)] = xh1
+        R[_ix(oxh1 + r)] = xh1
+        R[_ix(oxt1 + r)] = x_next[_ix(io + r)] - xh1
+        R[_ix(og + r)] = T[_ix(tg + r)]
+        R[_ix(oe + r)] = T[_ix(te + r)]
+    for c in range(p):
+        R[_ix(oxb + c)] = T[_ix(txb + c)]
+    R[oini] = 1.0
+    R[HP_NSTEPS] += 1.0
+    if act == LEARN:
+        R[HP_NUPDATES] += 1.0
+    return STATUS_OK
+
+
+@njit(cache=True, inline="always")
+def _sizes_ok(S, x, u, f, x_next, n, m, h):  # pragma: no cover - compiled
+    """Input sizes fit N rows, and the rows are state only or state plus scratch columns."""
+    nn = S.shape[0]
+    size = row_layout(n, m, h)[-1]
+    return (x.shape[0] == nn * n and u.shape[0] == nn * m and f.shape[0] == nn * n
+            and x_next.shape[0] == nn * n
+            and (S.shape[1] == size or S.shape[1] == size + scratch_layout(n, m, h)[-1]))
+
+
+@njit(cache=True, inline="always")
+def _scratch(S, n, m, h):  # pragma: no cover - compiled
+    """The scratch array: row 0's scratch columns if the rows have them, else a new one."""
+    size = row_layout(n, m, h)[-1]
+    if S.shape[1] > size:
+        return S[0, size:]
+    return np.empty(scratch_layout(n, m, h)[-1])
+
+
+@njit(cache=True, inline="always")
+def _observer_rows(S, T, x, u, f, x_next, lo, hi):  # pragma: no cover - compiled
+    """Rows lo … hi−1 of :func:`observer_step` with scratch ``T``; returns the failures."""
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
     nfail = 0
-    # backup space of the weight update, reused row after row: only row 0's copy is touched,
-    # which keeps the memory traffic of large batches down
-    scratch = out[0, o_bk:o_st]
-    for i in range(nn):
-        act = active[i]
-        if act == 0:
-            continue
-        th = theta[i]
-        o = out[i]
-        xi, ui, fi, xni, ok = _row_inputs(x, u, f, x_next, i, n, m)
-        if not ok:
-            o[o_st] = STATUS_BAD_INPUT
+    for i in range(lo, hi):
+        R = S[i]
+        st = _observer_row(R, T, x, u, f, x_next, i, n, m, h)
+        R[HP_STATUS] = st
+        if st != STATUS_OK:
             nfail += 1
-            continue
-        init = th[oini] != 0.0
-        xb = o[o_xb:o_xb + p]
-        xtk = o[o_xtk:o_xtk + n]
-        zn = o[o_z:o_z + n]
-        for r in range(n):
-            xh = th[oxh + r] if init else xi[r]
-            xb[r] = xh
-            xtk[r] = xi[r] - xh
-            zn[r] = th[oz + r] if init else 0.0  # z_k for now
-        for c in range(m):
-            xb[n + c] = ui[c]
-        g = o[o_g:o_g + n]
-        s = o[o_s:o_s + h]
-        forward_flat(th, n, h, p, xb, s, g)  # ĝ_k with the weights before the update
-        e = o[o_e:o_e + n]
-        observer_error(mode, xtk, zn, e)  # eq. 3.8 / 3.9 (e = z_k)
-        # x̂_{k+1} = x̂_k + Δt (f_k + ĝ_k − A_d x̃_k)   (eq. 3.1 with the errata's sign)
-        xh1 = o[o_xh:o_xh + n]
-        ok = True
-        for r in range(n):
-            xh1[r] = xb[r] + dt * (fi[r] + g[r] - a_d * xtk[r])
-            if not np.isfinite(xh1[r]):
-                ok = False
-        if not ok:
-            o[o_st] = STATUS_STATE_DIVERGED
-            nfail += 1
-            continue
-        if act == 2:
-            d = o[o_d:o_d + n]
-            observer_delta(e, a_d, d)
-            leak = dt * norm2(xtk)
-            if not unified_update(th, n, h, p, d, s, xb, dt * hp[HP_ETA1], dt * hp[HP_ETA2],
-                                  leak * hp[HP_RHO1], leak * hp[HP_RHO2], hp[HP_MAXN],
-                                  scratch):
-                o[o_st] = STATUS_DIVERGED
-                nfail += 1
-                continue
-            if mode == INTEGRAL:
-                z_filter_step(zn, xtk, hp[HP_LAM], dt, zn)  # eq. 4.6 (in place)
-        # commit the observer state
-        xtn = o[o_xt:o_xt + n]
-        for r in range(n):
-            th[oxh + r] = xh1[r]
-            th[oz + r] = zn[r]
-            xtn[r] = xni[r] - xh1[r]
-        th[oini] = 1.0
-        o[o_st] = STATUS_OK
     return nfail
 
 
-_MB_SIG = types.UniTuple(int64, 2)(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1],
-                                   float64[::1], float64[::1], float64[::1], int8[::1],
-                                   float64[:, :, ::1], int64[:, ::1])
+_OBS_SIG = int64(float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1])
 
 
-@njit(_MB_SIG, cache=True)
-def minibatch_step(theta, out, x, u, f, x_next, hp, active, buf, cnt):  # pragma: no cover
+@njit(_OBS_SIG, cache=True, error_model="numpy")
+def observer_step(S, x, u, f, x_next):  # pragma: no cover - compiled
+    """Advance every row by one step of the observer-based identifiers (one thread).
+
+    Returns the number of failed rows (their status says why), or −1 if the array sizes do
+    not fit.
+    """
+    nn = S.shape[0]
+    if nn == 0:
+        return 0
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
+    if not _sizes_ok(S, x, u, f, x_next, n, m, h):
+        return -1
+    return _observer_rows(S, _scratch(S, n, m, h), x, u, f, x_next, 0, nn)
+
+
+#: Rows per thread task of :func:`observer_step_parallel`.
+CHUNK = 64
+
+#: The same row loop as a called (not inlined) function: keeps the threaded kernel's
+#: compilation short.
+_observer_rows_called = njit(cache=True, error_model="numpy")(_observer_rows.py_func)
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def observer_step_parallel(S, x, u, f, x_next):  # pragma: no cover - compiled
+    """:func:`observer_step` with the rows split over numba's threads (same row code).
+
+    Rows are independent, so the result is bit-identical to :func:`observer_step`.
+    Compiled on first use (not at import).
+    """
+    nn = S.shape[0]
+    if nn == 0:
+        return 0
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
+    if not _sizes_ok(S, x, u, f, x_next, n, m, h):
+        return -1
+    tsize = scratch_layout(n, m, h)[-1]
+    nchunk = (nn + CHUNK - 1) // CHUNK
+    nfail = 0
+    for c in prange(nchunk):
+        nfail += _observer_rows_called(S, np.empty(tsize), x, u, f, x_next, c * CHUNK,
+                                       min(nn, (c + 1) * CHUNK))
+    return nfail
+
+
+_MB_SIG = types.UniTuple(int64, 2)(float64[:, ::1], float64[::1], float64[::1], float64[::1],
+                                   float64[::1], float64[:, :, ::1], int64[:, ::1])
+
+
+@njit(_MB_SIG, cache=True, error_model="numpy")
+def minibatch_step(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
     """Baseline 2, per-step part (eq. 4.2): ĝ_k = ĝ(x_k, u_k), x̂^pred_{k+1}, buffer push.
 
     Returns (failed rows or −1, rows whose SGD update is due).
     """
-    nn = active.shape[0]
-    n = int(hp[HP_N])
-    m = int(hp[HP_M])
-    h = int(hp[HP_H])
+    nn = S.shape[0]
+    if nn == 0:
+        return 0, 0
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
     p = n + m
-    dt = hp[HP_DT]
-    period = int(hp[HP_PERIOD])
-    o_g, o_xb, o_xh, o_xt, o_e, o_xtk, o_d, o_s, o_z, o_gw, o_gv, o_bk, o_st, q = out_offsets(
-        n, h, p)
-    if (x.shape[0] != nn * n or u.shape[0] != nn * m or f.shape[0] != nn * n
-            or x_next.shape[0] != nn * n or theta.shape[0] != nn or out.shape[0] != nn
-            or out.shape[1] != q or buf.shape[0] != nn or buf.shape[2] != p + n
-            or cnt.shape[0] != nn):
+    ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, size = row_layout(n, m, h)
+    if (not _sizes_ok(S, x, u, f, x_next, n, m, h) or buf.shape[0] != nn
+            or buf.shape[2] != p + n or cnt.shape[0] != nn):
         return -1, 0
+    T = _scratch(S, n, m, h)
+    ts = scratch_layout(n, m, h)[6]
     nfail = 0
     ndue = 0
     for i in range(nn):
-        act = active[i]
-        if act == 0:
+        R = S[i]
+        act = R[HP_ACT]
+        if act == SKIP:
             continue
-        th = theta[i]
-        o = out[i]
-        xi, ui, fi, xni, ok = _row_inputs(x, u, f, x_next, i, n, m)
-        if not ok:
-            o[o_st] = STATUS_BAD_INPUT
+        if not _inputs_ok(x, u, f, x_next, i, n, m):
+            R[HP_STATUS] = STATUS_BAD_INPUT
             nfail += 1
             continue
-        xb = o[o_xb:o_xb + p]
+        io = i * n
+        dt = R[HP_DT]
         for r in range(n):
-            xb[r] = xi[r]
+            R[_ix(oxb + r)] = x[_ix(io + r)]
         for c in range(m):
-            xb[n + c] = ui[c]
-        g = o[o_g:o_g + n]
-        forward_flat(th, n, h, p, xb, o[o_s:o_s + h], g)
+            R[_ix(oxb + n + c)] = u[_ix(i * m + c)]
+        forward(R, ow, n, h, p, R, oxb, T, ts, R, og)
         for r in range(n):
-            pred = xi[r] + dt * (fi[r] + g[r])  # x̂^pred_{k+1}, eq. 4.2
-            o[o_xh + r] = pred
-            o[o_xt + r] = xni[r] - pred
-            o[o_e + r] = xni[r] - pred
-            o[o_xtk + r] = 0.0
-        o[o_st] = STATUS_OK
-        if act == 2:
-            if buffer_push(buf[i], cnt[i], xb, xi, fi, xni, dt, p, n, period):
+            pred = x[_ix(io + r)] + dt * (f[_ix(io + r)] + R[_ix(og + r)])  # eq. 4.2
+            R[_ix(oxh1 + r)] = pred
+            R[_ix(oxt1 + r)] = x_next[_ix(io + r)] - pred
+            R[_ix(oe + r)] = x_next[_ix(io + r)] - pred
+        R[HP_STATUS] = STATUS_OK
+        R[HP_NSTEPS] += 1.0
+        if act == LEARN:
+            if buffer_push(buf[i], cnt[i], R, oxb, x, f, x_next, io, dt, p, n,
+                           int(R[HP_PERIOD])):
                 ndue += 1
     return nfail, ndue
 
 
-_SGD_SIG = int64(float64[:, ::1], float64[:, ::1], float64[::1], float64[:, :, ::1],
-                 int64[:, ::1], int64[:, ::1], int64[::1])
+_SGD_SIG = int64(float64[:, ::1], float64[:, :, ::1], int64[:, ::1], int64[:, ::1],
+                 int64[::1])
 
 
-@njit(_SGD_SIG, cache=True)
-def minibatch_sgd(theta, out, hp, buf, cnt, idx, rows):  # pragma: no cover - compiled
+@njit(_SGD_SIG, cache=True, error_model="numpy")
+def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
     """Baseline 2, burst part (eq. 4.3-4.4): one SGD step for each row in ``rows``.
 
     Row j of ``idx`` holds the buffer entries of ``rows[j]``. Clears the due flag.
 
     Returns the number of rows whose update would diverge (those keep their weights).
     """
-    n = int(hp[HP_N])
-    m = int(hp[HP_M])
-    h = int(hp[HP_H])
+    if S.shape[0] == 0:
+        return 0
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
     p = n + m
-    dt = hp[HP_DT]
-    o_g, o_xb, o_xh, o_xt, o_e, o_xtk, o_d, o_s, o_z, o_gw, o_gv, o_bk, o_st, q = out_offsets(
-        n, h, p)
+    ow = HP_SIZE
+    tg, txb, txh1, te, txt, td, ts, tgw, tsc, tsize = scratch_layout(n, m, h)
+    T = _scratch(S, n, m, h)
     nfail = 0
-    o0 = out[0]  # scratch of row 0 serves every row (see observer_step)
     for j in range(rows.shape[0]):
         i = rows[j]
-        o = out[i]
+        R = S[i]
         cnt[i, DUE] = 0
         if cnt[i, FILLED] == 0:
             continue
-        ok = sgd_step(theta[i], n, h, p, buf[i], idx[j], dt, hp[HP_ETA1], hp[HP_ETA2],
-                      hp[HP_MAXN], o0[o_s:o_s + h], o0[o_d:o_d + n], o0[o_xtk:o_xtk + n],
-                      o0[o_gw:o_gw + n * h], o0[o_gv:o_gv + h * p], o0[o_bk:o_st])
-        if not ok:
-            o[o_st] = STATUS_DIVERGED
+        ok = sgd_step(R, ow, n, h, p, buf[i], idx[j], R[HP_DT], R[HP_ETA1], R[HP_ETA2],
+                      R[HP_MAXN], T, ts, tg, td, tgw, tsc)
+        if ok:
+            R[HP_NUPDATES] += 1.0
+        else:
+            R[HP_STATUS] = STATUS_DIVERGED
             nfail += 1
     return nfail
 
@@ -284,9 +381,9 @@ def minibatch_sgd(theta, out, hp, buf, cnt, idx, rows):  # pragma: no cover - co
 _PRED_SIG = types.void(float64[::1], int64, int64, int64, float64[:, ::1], float64[:, ::1])
 
 
-@njit(_PRED_SIG, cache=True)
-def predict_rows(th, n, h, p, xbar, res):  # pragma: no cover - compiled
-    """ĝ for each row of ``xbar`` (K, p) with the flat weights ``th`` (same code as a step)."""
+@njit(_PRED_SIG, cache=True, error_model="numpy")
+def predict_rows(R, n, m, h, xbar, res):  # pragma: no cover - compiled
+    """ĝ for each row of ``xbar`` (K, p) with the weights of state row ``R`` (step's code)."""
     s = np.empty(h)
     for k in range(xbar.shape[0]):
-        forward_flat(th, n, h, p, xbar[k], s, res[k])
+        forward(R, HP_SIZE, n, h, n + m, xbar[k], 0, s, 0, res[k], 0)

@@ -17,13 +17,14 @@ differ only in δ and in the step sizes:
   one-step prediction error (:mod:`simgap.identifiers.minibatch`), k_i = η_i, l_i = 0.
 
 The kernels are numba functions on the flat weight layout of
-:mod:`simgap.identifiers.network`; they are inlined into :mod:`simgap.identifiers.kernels`.
+:mod:`simgap.identifiers.network`, addressed by offsets into one float64 row ``R`` per
+identifier; they are inlined into :mod:`simgap.identifiers.kernels`.
 """
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
+from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 #: Error-signal codes (``IdentifierConfig`` kinds → kernel codes).
 INSTANTANEOUS = 0
@@ -31,131 +32,168 @@ INTEGRAL = 1
 MINIBATCH = 2
 
 
+def scratch_size(n: int, h: int, p: int) -> int:
+    """Entries of the update scratch block: b, acc (n_h each), backup of the weights."""
+    return 2 * h + n * h + h * p
+
+
 @njit(cache=True, inline="always")
-def observer_error(mode, xt, z, e):  # pragma: no cover - compiled
+def observer_error(mode, xt, oxt, z, oz, e, oe, n):  # pragma: no cover - compiled
     """Error signal ∂J/∂x̃ᵀ: e = x̃ (eq. 3.8, mode 0) or e = z (eq. 3.9, mode 1)."""
     if mode == INTEGRAL:
-        for r in range(e.shape[0]):
-            e[r] = z[r]
+        for r in range(n):
+            e[_ix(oe + r)] = z[_ix(oz + r)]
     else:
-        for r in range(e.shape[0]):
-            e[r] = xt[r]
+        for r in range(n):
+            e[_ix(oe + r)] = xt[_ix(oxt + r)]
 
 
 @njit(cache=True, inline="always")
-def z_filter_step(z_k, xt_k, lam, dt, z_next):  # pragma: no cover - compiled
-    """Integral error state (eq. 4.6): z_{k+1} = z_k + Δt(−λ z_k + x̃_k)."""
-    for r in range(z_k.shape[0]):
-        z_next[r] = z_k[r] + dt * (-lam * z_k[r] + xt_k[r])
+def z_filter_step(z, oz, xt, oxt, lam, dt, n):  # pragma: no cover - compiled
+    """Integral error state (eq. 4.6), in place: z_{k+1} = z_k + Δt(−λ z_k + x̃_k)."""
+    for r in range(n):
+        zr = z[_ix(oz + r)]
+        z[_ix(oz + r)] = zr + dt * (-lam * zr + xt[_ix(oxt + r)])
 
 
-@njit(cache=True, inline="always")
-def observer_delta(e, a_d, delta):  # pragma: no cover - compiled
+@njit(cache=True, inline="always", error_model="numpy")
+def observer_delta(T, oe, a_d, od, n):  # pragma: no cover - compiled
     """δ = (eᵀ A_d⁻¹)ᵀ for A_d = a_d·I (the static approximation, eq. 3.5)."""
     inv = 1.0 / a_d
-    for r in range(e.shape[0]):
-        delta[r] = e[r] * inv
-
-
-@njit(cache=True, inline="always")
-def backprop(th, n, h, p, delta, s, xbar, gw, gv, accumulate):  # pragma: no cover - compiled
-    """G_W (+)= δ σᵀ and G_V (+)= ((I − Λ) Ŵᵀ δ) x̄ᵀ (eq. 3.5-3.7), flat row-major."""
-    for j in range(h):
-        b = 0.0
-        for r in range(n):
-            b += th[r * h + j] * delta[r]
-        b *= 1.0 - s[j] * s[j]
-        for c in range(p):
-            if accumulate:
-                gv[j * p + c] += b * xbar[c]
-            else:
-                gv[j * p + c] = b * xbar[c]
     for r in range(n):
-        dr = delta[r]
-        for j in range(h):
-            if accumulate:
-                gw[r * h + j] += dr * s[j]
-            else:
-                gw[r * h + j] = dr * s[j]
+        T[_ix(od + r)] = T[_ix(oe + r)] * inv
 
 
 @njit(cache=True, inline="always")
-def _commit_or_restore(th, nwv, backup, nw2, nv2, max_norm):  # pragma: no cover - compiled
-    """Keep the new weights if both Frobenius norms are finite and ≤ max_norm.
+def _hidden_error(R, ow, n, h, T, od, os, ob):  # pragma: no cover - compiled
+    """Hidden-layer error b = (I − Λ) Ŵᵀ δ into ``T[ob : ob + n_h]``.
 
-    Otherwise put the backed-up old weights back (bit-exact). Returns True if kept.
+    Ŵ at ``R[ow:]``, δ at ``T[od:]``, σ at ``T[os:]``; vectorised over the hidden units.
     """
-    lim = max_norm * max_norm
-    if nw2 <= lim and nv2 <= lim:  # False for NaN
+    for j in range(h):
+        T[_ix(ob + j)] = 0.0
+    for r in range(n):
+        dr = T[_ix(od + r)]
+        base = ow + r * h
+        for j in range(h):
+            T[_ix(ob + j)] += R[_ix(base + j)] * dr
+    for j in range(h):
+        sj = T[_ix(os + j)]
+        T[_ix(ob + j)] *= 1.0 - sj * sj
+
+
+@njit(cache=True, inline="always")
+def _commit_or_restore(R, ow, nwv, T, oacc, obk, h, max_norm):  # pragma: no cover
+    """Keep the new weights if ‖Ŵ‖_F² + ‖V̂‖_F² is finite and ≤ max_norm².
+
+    ``T[oacc : oacc + n_h]`` holds the squared new weights summed per hidden unit. Otherwise
+    the old weights backed up at ``T[obk:]`` are put back (bit-exact). Returns True if kept.
+    """
+    tot = 0.0
+    for j in range(h):
+        tot += T[_ix(oacc + j)]
+    if tot <= max_norm * max_norm:  # False for NaN
         return True
     for k in range(nwv):
-        th[k] = backup[k]
+        R[_ix(ow + k)] = T[_ix(obk + k)]
     return False
 
 
 @njit(cache=True, inline="always")
-def unified_update(th, n, h, p, delta, s, xbar, k1, k2, l1, l2, max_norm,
-                   backup):  # pragma: no cover - compiled
+def unified_update(R, ow, n, h, p, T, od, os, xb, oxb, k1, k2, l1, l2, max_norm,
+                   osc):  # pragma: no cover - compiled
     """Take one Euler step of the unified law, eq. 3.6-3.7, for the output-space error δ.
 
         Ŵ ← Ŵ − k1 δ σᵀ − l1 Ŵ,     V̂ ← V̂ − k2 ((I − Λ) Ŵᵀ δ) x̄ᵀ − l2 V̂
 
     with the old Ŵ inside the V̂ term. Observer laws: δ = A_d⁻ᵀ e, k_i = Δt η_i,
-    l_i = Δt ρ_i ‖x̃‖. Writes in place, keeping the old weights in ``backup`` (≥ n·h + h·p)
-    so a divergent step is undone exactly. Returns True if the new weights were kept.
+    l_i = Δt ρ_i ‖x̃‖. Weights at ``R[ow:]`` (layout in :mod:`~simgap.identifiers.network`),
+    δ at ``T[od:]``, σ at ``T[os:]``, x̄ at ``xb[oxb:]``; ``T[osc:]`` is scratch of
+    :func:`scratch_size` entries, where the old weights are kept so a divergent step is
+    undone exactly. Returns True if the new weights were kept.
     """
-    ov = n * h
-    nv2 = 0.0
+    ob = osc
+    oacc = ob + h
+    obk = oacc + h
+    _hidden_error(R, ow, n, h, T, od, os, ob)
     for j in range(h):
-        b = 0.0
-        for r in range(n):
-            b += th[r * h + j] * delta[r]
-        b *= 1.0 - s[j] * s[j]
-        base = ov + j * p
-        for c in range(p):
-            old = th[base + c]
-            backup[base + c] = old
-            v = old - k2 * b * xbar[c] - l2 * old
-            th[base + c] = v
-            nv2 += v * v
-    nw2 = 0.0
-    for r in range(n):
-        dr = k1 * delta[r]
-        base = r * h
+        T[_ix(oacc + j)] = 0.0
+    nw = n * h
+    ov = ow + nw
+    for c in range(p):  # V̂ᵀ row c: hidden units contiguous
+        kx = k2 * xb[_ix(oxb + c)]
+        base = ov + c * h
+        bb = obk + nw + c * h
         for j in range(h):
-            old = th[base + j]
-            backup[base + j] = old
-            w = old - dr * s[j] - l1 * old
-            th[base + j] = w
-            nw2 += w * w
-    return _commit_or_restore(th, ov + h * p, backup, nw2, nv2, max_norm)
+            old = R[_ix(base + j)]
+            T[_ix(bb + j)] = old
+            v = old - kx * T[_ix(ob + j)] - l2 * old
+            R[_ix(base + j)] = v
+            T[_ix(oacc + j)] += v * v
+    for r in range(n):
+        kd = k1 * T[_ix(od + r)]
+        base = ow + r * h
+        bb = obk + r * h
+        for j in range(h):
+            old = R[_ix(base + j)]
+            T[_ix(bb + j)] = old
+            w = old - kd * T[_ix(os + j)] - l1 * old
+            R[_ix(base + j)] = w
+            T[_ix(oacc + j)] += w * w
+    return _commit_or_restore(R, ow, nw + h * p, T, oacc, obk, h, max_norm)
 
 
 @njit(cache=True, inline="always")
-def apply_gradients(th, n, h, p, gw, gv, k1, k2, max_norm, backup):  # pragma: no cover
-    """Ŵ ← Ŵ − k1 G_W, V̂ ← V̂ − k2 G_V (eq. 4.4); undone exactly if it would diverge."""
-    ov = n * h
-    nw2 = 0.0
-    for k in range(ov):
-        old = th[k]
-        backup[k] = old
-        w = old - k1 * gw[k]
-        th[k] = w
-        nw2 += w * w
-    nv2 = 0.0
-    for k in range(h * p):
-        old = th[ov + k]
-        backup[ov + k] = old
-        v = old - k2 * gv[k]
-        th[ov + k] = v
-        nv2 += v * v
-    return _commit_or_restore(th, ov + h * p, backup, nw2, nv2, max_norm)
+def backprop(R, ow, n, h, p, T, od, os, xb, oxb, ogw, osc):  # pragma: no cover - compiled
+    """G_W += δ σᵀ and G_V += ((I − Λ) Ŵᵀ δ) x̄ᵀ (eq. 3.5-3.7), in the weights' layout.
+
+    ``T[ogw:]`` accumulates G_W (n × n_h) then G_Vᵀ (p × n_h); ``T[osc:]`` is scratch
+    (b uses its first n_h entries).
+    """
+    _hidden_error(R, ow, n, h, T, od, os, osc)
+    ogv = ogw + n * h
+    for c in range(p):
+        xc = xb[_ix(oxb + c)]
+        base = ogv + c * h
+        for j in range(h):
+            T[_ix(base + j)] += T[_ix(osc + j)] * xc
+    for r in range(n):
+        dr = T[_ix(od + r)]
+        base = ogw + r * h
+        for j in range(h):
+            T[_ix(base + j)] += dr * T[_ix(os + j)]
 
 
 @njit(cache=True, inline="always")
-def norm2(v):  # pragma: no cover - compiled
-    """Euclidean norm of a 1-D array."""
+def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, osc):  # pragma: no cover
+    """Ŵ ← Ŵ − k1 G_W, V̂ ← V̂ − k2 G_V (eq. 4.4); undone exactly if it would diverge.
+
+    ``T[ogw:]`` holds G_W then G_Vᵀ (same layout as the weights); ``T[osc:]`` is scratch
+    of :func:`scratch_size` entries.
+    """
+    oacc = osc + h
+    obk = oacc + h
+    nw = n * h
+    for j in range(h):
+        T[_ix(oacc + j)] = 0.0
+    for r in range(n + p):
+        k = k1 if r < n else k2
+        base = ow + r * h
+        gb = ogw + r * h
+        bb = obk + r * h
+        for j in range(h):
+            old = R[_ix(base + j)]
+            T[_ix(bb + j)] = old
+            w = old - k * T[_ix(gb + j)]
+            R[_ix(base + j)] = w
+            T[_ix(oacc + j)] += w * w
+    return _commit_or_restore(R, ow, nw + h * p, T, oacc, obk, h, max_norm)
+
+
+@njit(cache=True, inline="always")
+def norm_sq(a, o, n):  # pragma: no cover - compiled
+    """Squared Euclidean norm of ``a[o : o + n]``."""
     acc = 0.0
-    for r in range(v.shape[0]):
-        acc += v[r] * v[r]
-    return np.sqrt(acc)
+    for r in range(n):
+        acc += a[_ix(o + r)] * a[_ix(o + r)]
+    return acc

@@ -20,26 +20,28 @@ through the shared back-propagation of :mod:`simgap.identifiers.laws` with k_i =
 from __future__ import annotations
 
 from numba import njit
+from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 from simgap.identifiers.laws import apply_gradients, backprop
-from simgap.identifiers.network import forward_flat
+from simgap.identifiers.network import forward
 
 #: Columns of the per-identifier counters array.
 POS, FILLED, SINCE, DUE = 0, 1, 2, 3
 
 
 @njit(cache=True, inline="always")
-def buffer_push(buf, cnt, xbar, x, f, x_next, dt, p, n, period):  # pragma: no cover - compiled
+def buffer_push(buf, cnt, R, oxb, x, f, x_next, io, dt, p, n, period):  # pragma: no cover
     """Store (x̄_k, d_k = x_k + Δt f_k − x_{k+1}) in the ring buffer.
 
-    Every ``period`` pushes an update is flagged (``cnt[DUE] = 1``) and True returned.
+    x̄_k is read from ``R[oxb : oxb + p]``; x_k, f_k, x_{k+1} from the flat inputs at offset
+    ``io``. Every ``period`` pushes an update is flagged (``cnt[DUE] = 1``) and True returned.
     """
     size = buf.shape[0]
     row = buf[cnt[POS]]
     for c in range(p):
-        row[c] = xbar[c]
+        row[c] = R[_ix(oxb + c)]
     for r in range(n):
-        row[p + r] = x[r] + dt * f[r] - x_next[r]
+        row[_ix(p + r)] = x[_ix(io + r)] + dt * f[_ix(io + r)] - x_next[_ix(io + r)]
     cnt[POS] = (cnt[POS] + 1) % size
     if cnt[FILLED] < size:
         cnt[FILLED] += 1
@@ -52,24 +54,22 @@ def buffer_push(buf, cnt, xbar, x, f, x_next, dt, p, n, period):  # pragma: no c
 
 
 @njit(cache=True, inline="always")
-def sgd_step(th, n, h, p, buf, idx, dt, eta1, eta2, max_norm, s, g, delta, gw,
-             gv, backup):  # pragma: no cover - compiled
+def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, T, os, og, od, ogw,
+             osc):  # pragma: no cover - compiled
     """Take one SGD step of eq. 4.4 on the mini-batch ``idx`` of ``buf``.
 
-    The gradient is accumulated with the weights held fixed, then applied once. Returns
-    True if the new weights were kept.
+    Weights at ``R[ow:]``. The gradient is accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with
+    the weights held fixed, then applied once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and
+    ``T[osc:]`` are scratch. Returns True if the new weights were kept.
     """
     m = idx.shape[0]
-    for k in range(n * h):
-        gw[k] = 0.0
-    for k in range(h * p):
-        gv[k] = 0.0
+    for k in range(n * h + h * p):
+        T[_ix(ogw + k)] = 0.0
     scale = dt / m
     for j in range(m):
         row = buf[idx[j]]
-        xbar = row[:p]
-        forward_flat(th, n, h, p, xbar, s, g)
+        forward(R, ow, n, h, p, row, 0, T, os, T, og)
         for r in range(n):
-            delta[r] = scale * (row[p + r] + dt * g[r])
-        backprop(th, n, h, p, delta, s, xbar, gw, gv, True)
-    return apply_gradients(th, n, h, p, gw, gv, eta1, eta2, max_norm, backup)
+            T[_ix(od + r)] = scale * (row[_ix(p + r)] + dt * T[_ix(og + r)])
+        backprop(R, ow, n, h, p, T, od, os, row, 0, ogw, osc)
+    return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, osc)

@@ -21,8 +21,8 @@ from simgap.identifiers import (
     network_forward,
     preset,
 )
+from simgap.identifiers.activation import tanh as fast_tanh
 from simgap.identifiers.network import init_weights
-from simgap.identifiers.network import tanh as fast_tanh
 
 
 def _stream(seed: int, k: int, n: int = 4, m: int = 2):
@@ -85,10 +85,18 @@ def test_identical_seeds_give_bit_identical_runs(kind):
 
 
 def test_fast_tanh_matches_numpy():
-    a = np.concatenate([np.linspace(-25, 25, 2001), np.logspace(-300, 1.5, 500),
-                        -np.logspace(-300, 1.5, 500), [0.0, 0.01, -0.01, 20.0, -20.0]])
-    got = np.array([fast_tanh(v) for v in a])
-    np.testing.assert_allclose(got, np.tanh(a), rtol=2e-14, atol=1e-300)
+    rng = np.random.default_rng(0)
+    a = np.concatenate([np.linspace(-30, 30, 100001), np.logspace(-300, 1.5, 500),
+                        -np.logspace(-300, 1.5, 500), rng.normal(size=100000) * 3,
+                        rng.uniform(-0.2, 0.2, 100000),
+                        [0.0, -0.0, 0.01, -0.01, 0.05, -0.05, 20.0, -20.0, 5e-324]])
+    got = fast_tanh(a)
+    ref = np.tanh(a)
+    np.testing.assert_allclose(got, ref, rtol=2e-15, atol=0)
+    assert np.abs(got - ref).max() <= 2.3e-16
+    assert np.array_equal(np.signbit(got), np.signbit(ref))  # odd, including -0.0
+    special = fast_tanh(np.array([np.nan, np.inf, -np.inf, 1e308, -1e308]))
+    assert np.isnan(special[0]) and list(special[1:]) == [1.0, -1.0, 1.0, -1.0]
     # and the network uses it: a 1-unit network with unit weights is tanh itself
     np.testing.assert_array_equal(network_forward(np.ones((1, 1)), np.ones((1, 1)),
                                                   a[:, None])[:, 0], got)
@@ -170,7 +178,7 @@ def test_bad_inputs_raise_typed_errors_and_change_nothing(tmp_path):
         ident.step(np.zeros(3), u, f, x)
     with pytest.raises(IdentifierError, match="non-finite"):
         ident.step(x, np.array([np.nan, 0.0]), f, x)
-    np.testing.assert_array_equal(ident.state_dict()["theta"], state["theta"])
+    np.testing.assert_array_equal(ident.state_dict()["state"], state["state"])
     ident.step([0.0, 0, 0, 0], [0, 0], np.zeros(4, dtype=np.float32), x)  # coerced
     with pytest.raises(IdentifierError, match="unknown identifier kind"):
         make_identifier("integrl", 4, 2, 0.002)
@@ -196,7 +204,7 @@ def test_divergence_raises_and_keeps_last_good_state():
         for k in range(50):
             good = ident.state_dict()
             ident.step(x[k], u[k], f[k], x[k + 1])
-    np.testing.assert_array_equal(ident.state_dict()["theta"], good["theta"])
+    np.testing.assert_array_equal(ident.state_dict()["state"], good["state"])
     assert np.all(np.isfinite(ident.W))
 
 
