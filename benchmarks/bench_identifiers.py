@@ -16,7 +16,8 @@
 Targets (issue 3): proposed ≤ 1.2 µs mean, p99.9 ≤ 5 µs; batched ≤ 0.3 µs per
 instance-step; wrapped env ≥ 20,000 steps/s.
 
-Usage: ``python benchmarks/bench_identifiers.py [--runs 100] [--steps 1000]``
+Usage: ``python benchmarks/bench_identifiers.py [--runs 100] [--steps 1000] [--out F.json]``
+(``tests/test_benchmarks.py`` runs a tiny variant to keep the script working).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import json
 import os
 import platform
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numba
@@ -159,7 +161,11 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--batch", type=int, default=1024)
     ap.add_argument("--env-steps", type=int, default=5000)
+    ap.add_argument("--batch-calls", type=int, default=200, help="calls per batched repeat")
+    ap.add_argument("--out", type=Path, default=None, help="also write the JSON here")
     args = ap.parse_args()
+    if min(args.runs, args.steps, args.batch, args.env_steps, args.batch_calls) < 1:
+        ap.error("--runs, --steps, --batch, --env-steps and --batch-calls must be >= 1")
     console = Console(stderr=True)
     with console.status("recording the thesis manipulator trajectory"):
         x, u, f = record(args.steps)
@@ -178,7 +184,7 @@ def main() -> None:
         with console.status(f"per-step timing: {k} ({args.runs} runs × {args.steps} steps)"):
             result["per_step"][k] = per_step(k, x, u, f, args.runs)
         with console.status(f"batched N={args.batch}: {k}"):
-            result["batched"][k] = batched(k, args.batch, 200)
+            result["batched"][k] = batched(k, args.batch, args.batch_calls)
     for env_id in ("simgap/ManipulatorFriction-v0", "simgap/BicycleTire-v0"):
         with console.status(f"env loop: {env_id}"):
             result["env_steps_per_s"][env_id] = {
@@ -186,7 +192,28 @@ def main() -> None:
                 "wrapped_integral": env_loop(env_id, args.env_steps, True),
                 "wrapped_minibatch": env_loop(env_id, args.env_steps, True, "minibatch")}
     result["machine"]["load_average_1min_end"] = os.getloadavg()[0]
-    print(json.dumps(result, indent=2))
+    result["verdict"] = verdict(result)
+    text = json.dumps(result, indent=2)
+    print(text)
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text + "\n")
+
+
+def verdict(result: dict) -> dict[str, dict]:
+    """Each issue-3 target next to the value measured in this run and whether it is met."""
+    tg = result["targets"]
+    integral = result["per_step"]["integral"]["all"]
+    batch = result["batched"]["integral"]["api_us_per_instance_step"]["median_us"]
+    env = min(v[w]["median"] for v in result["env_steps_per_s"].values()
+              for w in ("wrapped_integral", "wrapped_minibatch"))
+    rows = {"integral_mean_us": (integral["mean_us"], tg["integral_mean_us"], "<="),
+            "integral_p999_us": (integral["p999_us"], tg["integral_p999_us"], "<="),
+            "batched_us_per_instance_step": (batch, tg["batched_us_per_instance_step"], "<="),
+            "wrapped_env_steps_per_s (slowest median)": (env, tg["wrapped_env_steps_per_s"],
+                                                          ">=")}
+    return {k: {"measured": v, "target": t,
+                "met": bool(v <= t if op == "<=" else v >= t)} for k, (v, t, op) in rows.items()}
 
 
 if __name__ == "__main__":

@@ -1,0 +1,42 @@
+"""The benchmark scripts run (tiny variants): their JSON has every field the notes quote.
+
+Speed targets are checked by the benchmarks themselves, not here (these machines are noisy).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(script: str, *args: str) -> dict:
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *args],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout)
+
+
+def test_bench_identifiers_quick(tmp_path):
+    out = tmp_path / "bench.json"
+    res = _run("bench_identifiers.py", "--runs", "2", "--steps", "200", "--batch", "300",
+               "--batch-calls", "3", "--env-steps", "300", "--out", str(out))
+    assert json.loads(out.read_text()) == res
+    for kind in ("instantaneous", "integral", "minibatch"):
+        stats = res["per_step"][kind]["all"]
+        assert stats["n"] == 400
+        assert 0 < stats["p50_us"] <= stats["p99_us"] <= stats["p999_us"] <= stats["max_us"]
+        assert res["batched"][kind]["api_us_per_instance_step"]["median_us"] > 0
+    assert res["per_step"]["minibatch"]["burst_steps"]["n"] > 0
+    assert res["batched"]["integral"]["threads"] >= 1
+    for row in res["verdict"].values():
+        assert row["measured"] > 0 and isinstance(row["met"], bool)
+
+
+def test_bench_envs_quick():
+    res = _run("bench_envs.py", "--steps", "300", "--repeats", "1")
+    assert res["manipulator"]["bare_steps_per_s"] > 0
+    assert res["bicycle"]["bare_steps_per_s"] > 0
