@@ -12,12 +12,11 @@ identifier i and holds, at the offsets returned by :func:`row_layout`:
   z (n), initialised flag (1);
 * results of the last step: ĝ_k (n), x̄_k (p), x̂_{k+1} (n), x̃_{k+1} (n), e_k (n).
 
-Per-call scratch (working copies of the results, committed only when a row's step succeeds;
-x̃_k, δ, σ, gradient, the backup of the weights; offsets from :func:`scratch_layout`) is one
-array shared by the rows a thread processes, not part of the rows: a batch step then
-streams only the ≈ 2 KB of each row's weights and results through the caches. A single
-identifier instead gives its row extra scratch columns after the state, which saves the
-allocation on every call.
+Scratch (working copies of the results, committed only when a row's step succeeds; x̃_k,
+δ, σ, gradient, the backup of the weights; offsets from :func:`scratch_layout`) is one array
+per thread, shared by the rows it processes, so a batch step streams only the ≈ 2 KB of
+each row's weights and results through the caches. A single identifier keeps its scratch in
+extra columns after its row, which saves an allocation on every call.
 
 Inputs ``x, u, f, x_next`` are flat float64 arrays of N·n, N·m, N·n, N·n values: a single
 identifier passes its 1-D vectors as they are, a batch passes ``a.reshape(-1)``. Keeping
@@ -37,6 +36,7 @@ import numpy as np
 from numba import float64, int64, njit, prange, types
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
+from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     norm_sq,
@@ -199,7 +199,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
 
 @njit(cache=True, inline="always")
 def _sizes_ok(S, x, u, f, x_next, n, m, h):  # pragma: no cover - compiled
-    """Input sizes fit N rows, and the rows are state only or state plus scratch columns."""
+    """Input sizes fit the N rows, and the rows are state only or state plus scratch."""
     nn = S.shape[0]
     size = row_layout(n, m, h)[-1]
     return (x.shape[0] == nn * n and u.shape[0] == nn * m and f.shape[0] == nn * n
@@ -208,8 +208,15 @@ def _sizes_ok(S, x, u, f, x_next, n, m, h):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _scratch(S, n, m, h):  # pragma: no cover - compiled
-    """The scratch array: row 0's scratch columns if the rows have them, else a new one."""
+def _scratch_owner(S):  # pragma: no cover - compiled
+    """Row 0's scratch columns if the rows have them (one identifier), else a new array.
+
+    The caller passes ``raw()`` of it to the row code and must use it again afterwards, so
+    that numba keeps it alive for the whole call.
+    """
+    n = int(S[0, HP_N])
+    m = int(S[0, HP_M])
+    h = int(S[0, HP_H])
     size = row_layout(n, m, h)[-1]
     if S.shape[1] > size:
         return S[0, size:]
@@ -218,7 +225,10 @@ def _scratch(S, n, m, h):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _observer_rows(S, T, x, u, f, x_next, lo, hi):  # pragma: no cover - compiled
-    """Rows lo … hi−1 of :func:`observer_step` with scratch ``T``; returns the failures."""
+    """Rows lo … hi−1 of :func:`observer_step` with scratch ``T``; returns the failures.
+
+    Takes the owner-less views of :func:`~simgap.identifiers._raw.raw`.
+    """
     n = int(S[0, HP_N])
     m = int(S[0, HP_M])
     h = int(S[0, HP_H])
@@ -245,12 +255,12 @@ def observer_step(S, x, u, f, x_next):  # pragma: no cover - compiled
     nn = S.shape[0]
     if nn == 0:
         return 0
-    n = int(S[0, HP_N])
-    m = int(S[0, HP_M])
-    h = int(S[0, HP_H])
-    if not _sizes_ok(S, x, u, f, x_next, n, m, h):
+    if not _sizes_ok(S, x, u, f, x_next, int(S[0, HP_N]), int(S[0, HP_M]), int(S[0, HP_H])):
         return -1
-    return _observer_rows(S, _scratch(S, n, m, h), x, u, f, x_next, 0, nn)
+    owner = _scratch_owner(S)
+    nfail = _observer_rows(raw(S), raw(owner), raw(x), raw(u), raw(f), raw(x_next), 0, nn)
+    owner[0] = owner[0]  # keeps the scratch alive until here
+    return nfail
 
 
 #: Rows per thread task of :func:`observer_step_parallel`.
@@ -265,23 +275,23 @@ _observer_rows_called = njit(cache=True, error_model="numpy")(_observer_rows.py_
 def observer_step_parallel(S, x, u, f, x_next):  # pragma: no cover - compiled
     """:func:`observer_step` with the rows split over numba's threads (same row code).
 
-    Rows are independent, so the result is bit-identical to :func:`observer_step`.
-    Compiled on first use (not at import).
+    Chunks of :data:`CHUNK` rows, each with its own scratch. Rows are independent, so the
+    result is bit-identical to :func:`observer_step`. Compiled on first use (not at import).
     """
     nn = S.shape[0]
     if nn == 0:
         return 0
-    n = int(S[0, HP_N])
-    m = int(S[0, HP_M])
-    h = int(S[0, HP_H])
-    if not _sizes_ok(S, x, u, f, x_next, n, m, h):
+    if not _sizes_ok(S, x, u, f, x_next, int(S[0, HP_N]), int(S[0, HP_M]), int(S[0, HP_H])):
         return -1
-    tsize = scratch_layout(n, m, h)[-1]
+    Sr, xr, ur, fr, xnr = raw(S), raw(x), raw(u), raw(f), raw(x_next)
     nchunk = (nn + CHUNK - 1) // CHUNK
     nfail = 0
+    tsize = scratch_layout(int(S[0, HP_N]), int(S[0, HP_M]), int(S[0, HP_H]))[-1]
     for c in prange(nchunk):
-        nfail += _observer_rows_called(S, np.empty(tsize), x, u, f, x_next, c * CHUNK,
+        owner = np.empty(tsize)
+        nfail += _observer_rows_called(Sr, raw(owner), xr, ur, fr, xnr, c * CHUNK,
                                        min(nn, (c + 1) * CHUNK))
+        owner[0] = 0.0  # keeps the scratch alive until here
     return nfail
 
 
@@ -306,7 +316,9 @@ def minibatch_step(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
     if (not _sizes_ok(S, x, u, f, x_next, n, m, h) or buf.shape[0] != nn
             or buf.shape[2] != p + n or cnt.shape[0] != nn):
         return -1, 0
-    T = _scratch(S, n, m, h)
+    owner = _scratch_owner(S)
+    T = raw(owner)
+    S, x, u, f, x_next, buf, cnt = raw(S), raw(x), raw(u), raw(f), raw(x_next), raw(buf), raw(cnt)
     ts = scratch_layout(n, m, h)[6]
     nfail = 0
     ndue = 0
@@ -337,6 +349,7 @@ def minibatch_step(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
             if buffer_push(buf[i], cnt[i], R, oxb, x, f, x_next, io, dt, p, n,
                            int(R[HP_PERIOD])):
                 ndue += 1
+    owner[0] = owner[0]  # keeps the scratch alive until here
     return nfail, ndue
 
 
@@ -360,7 +373,9 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
     p = n + m
     ow = HP_SIZE
     tg, txb, txh1, te, txt, td, ts, tgw, tsc, tsize = scratch_layout(n, m, h)
-    T = _scratch(S, n, m, h)
+    owner = _scratch_owner(S)
+    T = raw(owner)
+    S, buf, cnt, idx, rows = raw(S), raw(buf), raw(cnt), raw(idx), raw(rows)
     nfail = 0
     for j in range(rows.shape[0]):
         i = rows[j]
@@ -375,6 +390,7 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
         else:
             R[HP_STATUS] = STATUS_DIVERGED
             nfail += 1
+    owner[0] = owner[0]  # keeps the scratch alive until here
     return nfail
 
 

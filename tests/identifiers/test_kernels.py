@@ -38,7 +38,8 @@ def test_threaded_kernel_is_bit_identical_to_the_serial_one(kind):
         r1 = K.observer_step(s_serial, x, u, f, xn)
         r2 = K.observer_step_parallel(s_thread, x, u, f, xn)
         assert r1 == r2 == (1 if k == 20 else 0)
-        np.testing.assert_array_equal(s_serial, s_thread)
+        size = K.layout(4, 2, 20)["size"]  # the scratch columns after it differ, by design
+        np.testing.assert_array_equal(s_serial[:, :size], s_thread[:, :size])
         if k == 20:
             assert s_serial[5, K.HP_STATUS] == K.STATUS_BAD_INPUT
             changed = np.flatnonzero(s_serial[5] != before)
