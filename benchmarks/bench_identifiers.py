@@ -5,7 +5,8 @@
   ``perf_counter_ns`` (the timer's own cost is reported and NOT subtracted); statistics
   mean, p50, p99, p99.9, max in µs. Baseline 2's burst steps (those with an SGD update)
   are also reported separately, and for the observer laws the mean of the bare numba
-  kernel call (N = 1) on the same transitions, to split dispatch from Python overhead.
+  kernel call (``observer_step_single``) on the same transitions, to split the kernel from
+  the Python method around it (which allocates the returned ĝ).
 * batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (the API call,
   which splits the rows of the observer laws over numba's threads from 256 rows up), and the
   bare kernel calls without the Python wrapper on one thread and on all threads; best and
@@ -95,8 +96,9 @@ def per_step(kind: str, x, u, f, runs: int) -> dict:
     out = {"all": stats(times)}
     if kind != "minibatch":  # the same transitions through the bare kernel call (N = 1)
         ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
-        args = [(ident._state, xk, uk, fk, xn) for xk, uk, fk, xn in rows]
-        kern = K.observer_step
+        g = np.empty(4)
+        args = [(ident._state, xk, uk, fk, xn, g) for xk, uk, fk, xn in rows]
+        kern = K.observer_step_single
         t0 = time.perf_counter()
         for a in args:
             kern(*a)

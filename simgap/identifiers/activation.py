@@ -88,8 +88,8 @@ def tanh_scalar(a):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def tanh_inplace(buf, off, count):  # pragma: no cover - compiled
-    """Replace ``buf[off : off + count]`` by its tanh (vectorisable; see module docstring).
+def tanh_into(src, osrc, dst, odst, count):  # pragma: no cover - compiled
+    """``dst[odst + k] = tanh(src[osrc + k])`` for k < count (vectorisable; may be in place).
 
     Compiled on its own (not inlined) so that only this routine lets LLVM fuse a·b + c into
     one FMA instruction (``fastmath={"contract"}``), which rounds once instead of twice.
@@ -97,8 +97,14 @@ def tanh_inplace(buf, off, count):  # pragma: no cover - compiled
     an FMA machine's in the last bit.
     """
     for k in range(count):
-        j = _ix(off + k)  # unsigned: no wrap-around check, so the loop vectorises
-        buf[j] = tanh_scalar(buf[j])
+        # unsigned indices: no wrap-around check, so the loop vectorises
+        dst[_ix(odst + k)] = tanh_scalar(src[_ix(osrc + k)])
+
+
+@njit(cache=True, inline="always")
+def tanh_inplace(buf, off, count):  # pragma: no cover - compiled
+    """Replace ``buf[off : off + count]`` by its tanh (see :func:`tanh_into`)."""
+    tanh_into(buf, off, buf, off, count)
 
 
 @njit(cache=True, error_model="numpy")

@@ -93,6 +93,7 @@ class IdentifierBase:
         #: Batches of at least PARALLEL_MIN_ROWS rows are split over numba's threads.
         self._observer_kernel = (K.observer_step_parallel if nn >= PARALLEL_MIN_ROWS
                                  else K.observer_step)
+        self._minibatch_kernel = K.minibatch_step_single if nn == 1 else K.minibatch_step
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -109,6 +110,8 @@ class IdentifierBase:
         self._state[:, :K.HP_SIZE] = self._hp
         self._state[:, ow:ow + self._nw] = w0.ravel()
         self._state[:, ow + self._nw:ow + self._nw + self._nv] = v0.T.ravel()
+        self._state[:, K.HP_NORM2] = np.sum(w0 * w0)
+        self._state[:, K.HP_NORM2 + 1] = np.sum(v0 * v0)
         self._buf[:] = 0.0
         self._cnt[:] = 0
         self._rng = sampling_rng(self.seed)
@@ -148,7 +151,8 @@ class IdentifierBase:
         """Advance the active rows; raise a typed error naming the failed rows (unchanged)."""
         try:
             if self._minibatch:
-                r, due = K.minibatch_step(self._state, x, u, f, x_next, self._buf, self._cnt)
+                r, due = self._minibatch_kernel(self._state, x, u, f, x_next, self._buf,
+                                                self._cnt)
             else:
                 r = self._observer_kernel(self._state, x, u, f, x_next)
                 due = 0

@@ -15,7 +15,9 @@ from simgap.identifiers import io
 from simgap.identifiers.config import IdentifierConfig
 from simgap.identifiers.core import IdentifierBase
 from simgap.identifiers.errors import IdentifierError
-from simgap.identifiers.kernels import HP_NSTEPS, HP_NUPDATES, observer_step
+from simgap.identifiers.kernels import HP_NSTEPS, HP_NUPDATES, observer_step_single
+
+_empty = np.empty
 
 
 class Identifier(IdentifierBase):
@@ -63,12 +65,13 @@ class Identifier(IdentifierBase):
         if self._minibatch:
             self._run(x, u, f, x_next)
             return self._g_view.copy()
-        try:  # the hot path: one kernel call
-            r = observer_step(self._state, x, u, f, x_next)
-        except TypeError:  # not float64 C-contiguous 1-D: convert and retry
-            r = -2
-        if r:
-            self._run(x, u, f, x_next)  # converts, retries, raises the typed error
+        g = _empty(self.n_states)
+        try:  # the hot path: one kernel call, which also fills g
+            if not observer_step_single(self._state, x, u, f, x_next, g):
+                return g
+        except TypeError:  # not float64 C-contiguous 1-D: the general path converts
+            pass
+        self._run(x, u, f, x_next)  # converts and retries, or raises the typed error
         return self._g_view.copy()
 
     @property

@@ -33,8 +33,8 @@ MINIBATCH = 2
 
 
 def scratch_size(n: int, h: int, p: int) -> int:
-    """Entries of the update scratch block: b, acc (n_h each), backup of the weights."""
-    return 2 * h + n * h + h * p
+    """Entries of the update scratch block: b and two accumulators (n_h each), a backup."""
+    return 3 * h + n * h + h * p
 
 
 @njit(cache=True, inline="always")
@@ -83,64 +83,63 @@ def _hidden_error(R, ow, n, h, T, od, os, ob):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _commit_or_restore(R, ow, nwv, T, oacc, obk, h, max_norm):  # pragma: no cover
-    """Keep the new weights if ‖Ŵ‖_F² + ‖V̂‖_F² is finite and ≤ max_norm².
-
-    ``T[oacc : oacc + n_h]`` holds the squared new weights summed per hidden unit. Otherwise
-    the old weights backed up at ``T[obk:]`` are put back (bit-exact). Returns True if kept.
-    """
-    tot = 0.0
-    for j in range(h):
-        tot += T[_ix(oacc + j)]
-    if tot <= max_norm * max_norm:  # False for NaN
-        return True
-    for k in range(nwv):
-        R[_ix(ow + k)] = T[_ix(obk + k)]
-    return False
+def _dot(a, oa, b, ob, k):  # pragma: no cover - compiled
+    """Σ_i a[oa + i] · b[ob + i] over k entries."""
+    acc = 0.0
+    for i in range(k):
+        acc += a[_ix(oa + i)] * b[_ix(ob + i)]
+    return acc
 
 
 @njit(cache=True, inline="always")
-def unified_update(R, ow, n, h, p, T, od, os, xb, oxb, k1, k2, l1, l2, max_norm,
+def unified_update(R, ow, n, h, p, T, od, os, oa, og, xb, oxb, k1, k2, l1, l2, max_norm, onorm,
                    osc):  # pragma: no cover - compiled
     """Take one Euler step of the unified law, eq. 3.6-3.7, for the output-space error δ.
 
-        Ŵ ← Ŵ − k1 δ σᵀ − l1 Ŵ,     V̂ ← V̂ − k2 ((I − Λ) Ŵᵀ δ) x̄ᵀ − l2 V̂
+        Ŵ ← (1 − l1) Ŵ − k1 δ σᵀ,     V̂ ← (1 − l2) V̂ − k2 ((I − Λ) Ŵᵀ δ) x̄ᵀ
 
     with the old Ŵ inside the V̂ term. Observer laws: δ = A_d⁻ᵀ e, k_i = Δt η_i,
     l_i = Δt ρ_i ‖x̃‖. Weights at ``R[ow:]`` (layout in :mod:`~simgap.identifiers.network`),
-    δ at ``T[od:]``, σ at ``T[os:]``, x̄ at ``xb[oxb:]``; ``T[osc:]`` is scratch of
-    :func:`scratch_size` entries, where the old weights are kept so a divergent step is
-    undone exactly. Returns True if the new weights were kept.
+    their squared Frobenius norms ‖Ŵ‖², ‖V̂‖² at ``R[onorm]``, ``R[onorm + 1]``; in ``T``: δ
+    at ``od``, σ at ``os``, the pre-activations a = V̂ x̄ at ``oa``, ĝ = Ŵ σ at ``og``, and
+    ``scratch_size`` entries of scratch at ``osc``; x̄ at ``xb[oxb:]``.
+
+    The divergence check needs the norms after the step before anything is written. They
+    follow from the rank-one form of the step without a pass over the weights:
+
+        ‖Ŵ'‖² = (1 − l1)² ‖Ŵ‖² − 2 (1 − l1) k1 δᵀĝ + k1² ‖δ‖² ‖σ‖²
+        ‖V̂'‖² = (1 − l2)² ‖V̂‖² − 2 (1 − l2) k2 bᵀa + k2² ‖b‖² ‖x̄‖²,   b = (I − Λ) Ŵᵀ δ.
+
+    If √(‖Ŵ'‖² + ‖V̂'‖²) is finite and ≤ ``max_norm`` the weights and norms are updated and
+    True returned; otherwise nothing is written. (The tracked norms drift from the exact ones
+    by rounding only, ~1e-16 relative per step; they serve this bound and nothing else, and
+    are recomputed exactly at every baseline-2 step and at reset.)
     """
     ob = osc
-    oacc = ob + h
-    obk = oacc + h
     _hidden_error(R, ow, n, h, T, od, os, ob)
-    for j in range(h):
-        T[_ix(oacc + j)] = 0.0
+    c1 = 1.0 - l1
+    c2 = 1.0 - l2
+    wn2 = (c1 * c1 * R[onorm] - 2.0 * c1 * k1 * _dot(T, od, T, og, n)
+           + k1 * k1 * _dot(T, od, T, od, n) * _dot(T, os, T, os, h))
+    vn2 = (c2 * c2 * R[onorm + 1] - 2.0 * c2 * k2 * _dot(T, ob, T, oa, h)
+           + k2 * k2 * _dot(T, ob, T, ob, h) * _dot(xb, oxb, xb, oxb, p))
+    if not wn2 + vn2 <= max_norm * max_norm:  # also catches NaN and inf
+        return False
     nw = n * h
     ov = ow + nw
     for c in range(p):  # V̂ᵀ row c: hidden units contiguous
         kx = k2 * xb[_ix(oxb + c)]
         base = ov + c * h
-        bb = obk + nw + c * h
         for j in range(h):
-            old = R[_ix(base + j)]
-            T[_ix(bb + j)] = old
-            v = old - kx * T[_ix(ob + j)] - l2 * old
-            R[_ix(base + j)] = v
-            T[_ix(oacc + j)] += v * v
+            R[_ix(base + j)] = c2 * R[_ix(base + j)] - kx * T[_ix(ob + j)]
     for r in range(n):
         kd = k1 * T[_ix(od + r)]
         base = ow + r * h
-        bb = obk + r * h
         for j in range(h):
-            old = R[_ix(base + j)]
-            T[_ix(bb + j)] = old
-            w = old - kd * T[_ix(os + j)] - l1 * old
-            R[_ix(base + j)] = w
-            T[_ix(oacc + j)] += w * w
-    return _commit_or_restore(R, ow, nw + h * p, T, oacc, obk, h, max_norm)
+            R[_ix(base + j)] = c1 * R[_ix(base + j)] - kd * T[_ix(os + j)]
+    R[onorm] = max(wn2, 0.0)
+    R[onorm + 1] = max(vn2, 0.0)
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -165,19 +164,23 @@ def backprop(R, ow, n, h, p, T, od, os, xb, oxb, ogw, osc):  # pragma: no cover 
 
 
 @njit(cache=True, inline="always")
-def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, osc):  # pragma: no cover
+def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, onorm,
+                    osc):  # pragma: no cover - compiled
     """Ŵ ← Ŵ − k1 G_W, V̂ ← V̂ − k2 G_V (eq. 4.4); undone exactly if it would diverge.
 
     ``T[ogw:]`` holds G_W then G_Vᵀ (same layout as the weights); ``T[osc:]`` is scratch
-    of :func:`scratch_size` entries.
+    of :func:`scratch_size` entries. On success the exact squared norms ‖Ŵ‖², ‖V̂‖² are
+    stored at ``R[onorm]``, ``R[onorm + 1]``. Returns True if the new weights were kept.
     """
-    oacc = osc + h
-    obk = oacc + h
-    nw = n * h
+    accw = osc + h
+    accv = accw + h
+    obk = accv + h
     for j in range(h):
-        T[_ix(oacc + j)] = 0.0
+        T[_ix(accw + j)] = 0.0
+        T[_ix(accv + j)] = 0.0
     for r in range(n + p):
         k = k1 if r < n else k2
+        acc = accw if r < n else accv
         base = ow + r * h
         gb = ogw + r * h
         bb = obk + r * h
@@ -186,8 +189,19 @@ def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, osc):  # pragma: n
             T[_ix(bb + j)] = old
             w = old - k * T[_ix(gb + j)]
             R[_ix(base + j)] = w
-            T[_ix(oacc + j)] += w * w
-    return _commit_or_restore(R, ow, nw + h * p, T, oacc, obk, h, max_norm)
+            T[_ix(acc + j)] += w * w
+    wn2 = 0.0
+    vn2 = 0.0
+    for j in range(h):
+        wn2 += T[_ix(accw + j)]
+        vn2 += T[_ix(accv + j)]
+    if wn2 + vn2 <= max_norm * max_norm:  # False for NaN
+        R[onorm] = wn2
+        R[onorm + 1] = vn2
+        return True
+    for k in range((n + p) * h):
+        R[_ix(ow + k)] = T[_ix(obk + k)]
+    return False
 
 
 @njit(cache=True, inline="always")

@@ -54,13 +54,14 @@ def buffer_push(buf, cnt, R, oxb, x, f, x_next, io, dt, p, n, period):  # pragma
 
 
 @njit(cache=True, inline="always")
-def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, T, os, og, od, ogw,
+def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, og, od, ogw,
              osc):  # pragma: no cover - compiled
     """Take one SGD step of eq. 4.4 on the mini-batch ``idx`` of ``buf``.
 
-    Weights at ``R[ow:]``. The gradient is accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with
-    the weights held fixed, then applied once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and
-    ``T[osc:]`` are scratch. Returns True if the new weights were kept.
+    Weights at ``R[ow:]``, their squared norms at ``R[onorm:onorm + 2]``. The gradient is
+    accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with the weights held fixed, then applied
+    once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. Returns True if
+    the new weights were kept.
     """
     m = idx.shape[0]
     for k in range(n * h + h * p):
@@ -72,4 +73,4 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, T, os, og, od, 
         for r in range(n):
             T[_ix(od + r)] = scale * (row[_ix(p + r)] + dt * T[_ix(og + r)])
         backprop(R, ow, n, h, p, T, od, os, row, 0, ogw, osc)
-    return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, osc)
+    return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, onorm, osc)

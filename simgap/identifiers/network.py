@@ -19,33 +19,40 @@ import numpy as np
 from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
-from simgap.identifiers.activation import tanh_inplace
+from simgap.identifiers.activation import tanh_into
 from simgap.identifiers.errors import IdentifierError
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def forward(th, ow, n, h, p, xb, oxb, s, os, g, og):  # pragma: no cover - compiled
-    """ĝ = Ŵ tanh(V̂ x̄) from the flat weights at ``th[ow:]``.
+def forward_keep(th, ow, n, h, p, xb, oxb, a, oa, s, os, g, og):  # pragma: no cover
+    """ĝ = Ŵ tanh(V̂ x̄) from the flat weights at ``th[ow:]``, keeping the pre-activations.
 
-    Reads x̄ from ``xb[oxb : oxb + p]``; writes σ = tanh(V̂ x̄) to ``s[os : os + n_h]`` and
-    ĝ to ``g[og : og + n]`` (the three buffers may be one array). Each pre-activation is
-    summed over the inputs in order c = 0 … p−1, each output over the hidden units in order.
+    Reads x̄ from ``xb[oxb : oxb + p]``; writes a = V̂ x̄ to ``a[oa : oa + n_h]``,
+    σ = tanh(a) to ``s[os : os + n_h]`` (may be the same place) and ĝ to ``g[og : og + n]``
+    (the buffers may be one array). Each pre-activation is summed over the inputs in order
+    c = 0 … p−1, each output over the hidden units in order.
     """
     ov = ow + n * h
     for j in range(h):
-        s[_ix(os + j)] = 0.0
+        a[_ix(oa + j)] = 0.0
     for c in range(p):
         xc = xb[_ix(oxb + c)]
         base = ov + c * h
         for j in range(h):
-            s[_ix(os + j)] += th[_ix(base + j)] * xc
-    tanh_inplace(s, os, h)
+            a[_ix(oa + j)] += th[_ix(base + j)] * xc
+    tanh_into(a, oa, s, os, h)
     for r in range(n):
         acc = 0.0
         base = ow + r * h
         for j in range(h):
             acc += th[_ix(base + j)] * s[_ix(os + j)]
         g[_ix(og + r)] = acc
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def forward(th, ow, n, h, p, xb, oxb, s, os, g, og):  # pragma: no cover - compiled
+    """ĝ = Ŵ tanh(V̂ x̄) (:func:`forward_keep` with the pre-activations overwritten by σ)."""
+    forward_keep(th, ow, n, h, p, xb, oxb, s, os, s, os, g, og)
 
 
 @njit(cache=True, error_model="numpy")

@@ -86,3 +86,18 @@ def test_wrong_sizes_are_rejected_by_the_kernel():
                            np.zeros(4)) == -1
     with pytest.raises(IdentifierError, match="expected x, f, x_next with 4"):
         ident.step(np.zeros(4), np.zeros(3), np.zeros(4), np.zeros(4))
+
+
+@pytest.mark.parametrize("kind", ["instantaneous", "integral", "minibatch"])
+def test_tracked_weight_norms_stay_equal_to_the_exact_ones(kind):
+    """The divergence bound uses ‖Ŵ‖², ‖V̂‖² updated by the rank-one identity, not recomputed."""
+    ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind), seed=5)
+    W0 = ident.W  # noqa: N806
+    rng = np.random.default_rng(6)
+    for _ in range(3000):
+        x, u, f, xn = (a[0] for a in _inputs(rng, 1))
+        ident.step(x, u, f, xn)
+    W, V = ident.W, ident.V  # noqa: N806
+    tracked = ident._state[0, K.HP_NORM2:K.HP_NORM2 + 2]
+    np.testing.assert_allclose(tracked, [np.sum(W * W), np.sum(V * V)], rtol=1e-9)
+    assert np.abs(W - W0).max() > 1e-6  # the weights did move
