@@ -3,10 +3,11 @@
 * per-step time of ``Identifier.step`` called from Python, each kind: 100 runs of
   ``--steps`` steps on a recorded thesis manipulator trajectory; every call timed with
   ``perf_counter_ns`` (the timer's own cost is reported and NOT subtracted); statistics
-  mean, p50, p99, p99.9, max in µs. Baseline 2's burst steps (those with an SGD update)
-  are also reported separately, and for the observer laws the mean of the bare numba
-  kernel call (``observer_step_single``) on the same transitions, to split the kernel from
-  the Python method around it (which allocates the returned ĝ).
+  mean, p50, p99, p99.9, max in µs. The same runs are also timed as whole loops
+  (``loop_timed_mean_us``: the mean without the per-call timer). Baseline 2's burst steps
+  (those with an SGD update) are also reported separately, and for the observer laws the
+  mean of the bare numba kernel call (``observer_step_single``) on the same transitions, to
+  split the kernel from the Python method around it (which allocates the returned ĝ).
 * batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (the API call,
   which splits the rows of the observer laws over numba's threads from 256 rows up), and the
   bare kernel calls without the Python wrapper on one thread and on all threads; best and
@@ -93,7 +94,20 @@ def per_step(kind: str, x, u, f, runs: int) -> dict:
             times[i] = t1 - t0
             burst[i] = kind == "minibatch" and ident.n_updates != before
             i += 1
-    out = {"all": stats(times)}
+    # the same runs timed as whole loops: the mean cost of a step without the per-call
+    # timer (whose own cost and cache disturbance the per-call figures above include)
+    loop_us = []
+    for run in range(runs):
+        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind),
+                                seed=run)
+        step = ident.step
+        t0 = clock()
+        for xk, uk, fk, xn in rows:
+            step(xk, uk, fk, xn)
+        loop_us.append((clock() - t0) / steps / 1e3)
+    out = {"all": stats(times),
+           "loop_timed_mean_us": float(np.mean(loop_us)),
+           "loop_timed_median_of_runs_us": float(np.median(loop_us))}
     if kind != "minibatch":  # the same transitions through the bare kernel call (N = 1)
         ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
         g = np.empty(4)
@@ -205,12 +219,16 @@ def main() -> None:
 def verdict(result: dict) -> dict[str, dict]:
     """Each issue-3 target next to the value measured in this run and whether it is met."""
     tg = result["targets"]
-    integral = result["per_step"]["integral"]["all"]
+    integral = result["per_step"]["integral"]
     batch = result["batched"]["integral"]["api_us_per_instance_step"]["median_us"]
     env = min(v[w]["median"] for v in result["env_steps_per_s"].values()
               for w in ("wrapped_integral", "wrapped_minibatch"))
-    rows = {"integral_mean_us": (integral["mean_us"], tg["integral_mean_us"], "<="),
-            "integral_p999_us": (integral["p999_us"], tg["integral_p999_us"], "<="),
+    rows = {"integral_mean_us (loop-timed)": (integral["loop_timed_mean_us"],
+                                               tg["integral_mean_us"], "<="),
+            "integral_mean_us (each call timed)": (integral["all"]["mean_us"],
+                                                   tg["integral_mean_us"], "<="),
+            "integral_p999_us (each call timed)": (integral["all"]["p999_us"],
+                                                   tg["integral_p999_us"], "<="),
             "batched_us_per_instance_step": (batch, tg["batched_us_per_instance_step"], "<="),
             "wrapped_env_steps_per_s (slowest median)": (env, tg["wrapped_env_steps_per_s"],
                                                           ">=")}

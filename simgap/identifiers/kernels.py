@@ -13,18 +13,27 @@ identifier i and holds, at the offsets returned by :func:`row_layout`:
 * results of the last step: ĝ_k (n), x̄_k (p), x̂_{k+1} (n), x̃_{k+1} (n), e_k (n).
 
 Scratch (working copies of the results, committed only when a row's step succeeds; x̃_k,
-δ, σ, gradient, the backup of the weights; offsets from :func:`scratch_layout`) is one array
+δ, σ, pre-activations, gradient, update scratch; offsets from :func:`scratch_layout`) is one array
 per thread, shared by the rows it processes, so a batch step streams only the ≈ 2 KB of
 each row's weights and results through the caches. A single identifier keeps its scratch in
 extra columns after its row, which saves an allocation on every call.
 
 Inputs ``x, u, f, x_next`` are flat float64 arrays of N·n, N·m, N·n, N·n values: a single
-identifier passes its 1-D vectors as they are, a batch passes ``a.reshape(-1)``. Keeping
-the state in one array keeps the kernel call at five arguments: numba's dispatcher costs
-≈ 55 ns per array argument, a large part of a ≈ 1 µs step.
+identifier passes its 1-D vectors as they are, a batch passes ``a.reshape(-1)``.
 
-Indices inside the loops are cast to unsigned (``_ix``): numba then drops its negative-
-index wrap-around, and LLVM vectorises the loops over the hidden units.
+Where the time of one ≈ 1 µs step goes, and what the code does about it (measured on the
+2-core benchmark machine; ``benchmarks/bench_identifiers.py``):
+
+* numba's dispatcher costs ≈ 55 ns per array argument, ≈ 30 ns without numba's runtime:
+  the whole state is one array, and :func:`observer_step_single` (the single identifier's
+  hot path) is compiled without the runtime (:func:`_no_runtime`);
+* numba's atomic reference counting on every array binding took ≈ 25 % of a batched step:
+  the runtime-enabled kernels work on owner-less views (:mod:`~simgap.identifiers._raw`);
+* loops over the hidden units vectorise only if their indices are unsigned (``_ix``: no
+  negative-index wrap-around) and σ = tanh is straight-line arithmetic
+  (:mod:`~simgap.identifiers.activation`);
+* the divergence bound uses weight norms tracked by an exact identity instead of a backup
+  pass over the weights (:func:`~simgap.identifiers.laws.unified_update`).
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
