@@ -48,7 +48,7 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
-    norm_sq,
+    dot,
     observer_delta,
     observer_error,
     scratch_size,
@@ -115,7 +115,7 @@ def scratch_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_
     ta = ts + h
     tgw = ta + h
     tsc = tgw + n * h + h * p
-    return tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, tsc + 3 * h + n * h + h * p
+    return tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, tsc + scratch_size(n, h, p)
 
 
 def layout(n: int, m: int, h: int) -> dict[str, int]:
@@ -184,7 +184,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         return STATUS_STATE_DIVERGED
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
-        leak = dt * np.sqrt(norm_sq(T, txt, n))
+        leak = dt * np.sqrt(dot(T, txt, T, txt, n))
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, tg, T, txb, dt * R[HP_ETA1],
                               dt * R[HP_ETA2], leak * R[HP_RHO1], leak * R[HP_RHO2],
                               R[HP_MAXN], HP_NORM2, tsc):

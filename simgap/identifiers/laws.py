@@ -32,7 +32,8 @@ INTEGRAL = 1
 MINIBATCH = 2
 
 
-def scratch_size(n: int, h: int, p: int) -> int:
+@njit(cache=True, inline="always")
+def scratch_size(n, h, p):  # pragma: no cover - compiled (callable from Python too)
     """Entries of the update scratch block: b and two accumulators (n_h each), a backup."""
     return 3 * h + n * h + h * p
 
@@ -83,7 +84,7 @@ def _hidden_error(R, ow, n, h, T, od, os, ob):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _dot(a, oa, b, ob, k):  # pragma: no cover - compiled
+def dot(a, oa, b, ob, k):  # pragma: no cover - compiled
     """Σ_i a[oa + i] · b[ob + i] over k entries."""
     acc = 0.0
     for i in range(k):
@@ -119,10 +120,10 @@ def unified_update(R, ow, n, h, p, T, od, os, oa, og, xb, oxb, k1, k2, l1, l2, m
     _hidden_error(R, ow, n, h, T, od, os, ob)
     c1 = 1.0 - l1
     c2 = 1.0 - l2
-    wn2 = (c1 * c1 * R[onorm] - 2.0 * c1 * k1 * _dot(T, od, T, og, n)
-           + k1 * k1 * _dot(T, od, T, od, n) * _dot(T, os, T, os, h))
-    vn2 = (c2 * c2 * R[onorm + 1] - 2.0 * c2 * k2 * _dot(T, ob, T, oa, h)
-           + k2 * k2 * _dot(T, ob, T, ob, h) * _dot(xb, oxb, xb, oxb, p))
+    wn2 = (c1 * c1 * R[onorm] - 2.0 * c1 * k1 * dot(T, od, T, og, n)
+           + k1 * k1 * dot(T, od, T, od, n) * dot(T, os, T, os, h))
+    vn2 = (c2 * c2 * R[onorm + 1] - 2.0 * c2 * k2 * dot(T, ob, T, oa, h)
+           + k2 * k2 * dot(T, ob, T, ob, h) * dot(xb, oxb, xb, oxb, p))
     if not wn2 + vn2 <= max_norm * max_norm:  # also catches NaN and inf
         return False
     nw = n * h
@@ -202,12 +203,3 @@ def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, onorm,
     for k in range((n + p) * h):
         R[_ix(ow + k)] = T[_ix(obk + k)]
     return False
-
-
-@njit(cache=True, inline="always")
-def norm_sq(a, o, n):  # pragma: no cover - compiled
-    """Squared Euclidean norm of ``a[o : o + n]``."""
-    acc = 0.0
-    for r in range(n):
-        acc += a[_ix(o + r)] * a[_ix(o + r)]
-    return acc
