@@ -241,7 +241,9 @@ def _scratch_owner(S):  # pragma: no cover - compiled
 def _observer_rows(S, T, x, u, f, x_next, lo, hi):  # pragma: no cover - compiled
     """Rows lo … hi−1 of :func:`observer_step` with scratch ``T``; returns the failures.
 
-    Takes the owner-less views of :func:`~simgap.identifiers._raw.raw`.
+    Called with the owner-less views of :func:`~simgap.identifiers._raw.raw`, or, in a
+    function compiled without numba's runtime, with the arguments themselves (neither
+    counts references).
     """
     n = int(S[0, HP_N])
     m = int(S[0, HP_M])
