@@ -26,6 +26,8 @@ from __future__ import annotations
 from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
+from simgap.identifiers.network import mat_t_vec
+
 #: Error-signal codes (``IdentifierConfig`` kinds → kernel codes).
 INSTANTANEOUS = 0
 INTEGRAL = 1
@@ -71,13 +73,7 @@ def _hidden_error(R, ow, n, h, T, od, os, ob):  # pragma: no cover - compiled
 
     Ŵ at ``R[ow:]``, δ at ``T[od:]``, σ at ``T[os:]``; vectorised over the hidden units.
     """
-    for j in range(h):
-        T[_ix(ob + j)] = 0.0
-    for r in range(n):
-        dr = T[_ix(od + r)]
-        base = ow + r * h
-        for j in range(h):
-            T[_ix(ob + j)] += R[_ix(base + j)] * dr
+    mat_t_vec(R, ow, n, h, T, od, T, ob)  # Ŵᵀ δ
     for j in range(h):
         sj = T[_ix(os + j)]
         T[_ix(ob + j)] *= 1.0 - sj * sj
@@ -151,17 +147,18 @@ def backprop(R, ow, n, h, p, T, od, os, xb, oxb, ogw, osc):  # pragma: no cover 
     (b uses its first n_h entries).
     """
     _hidden_error(R, ow, n, h, T, od, os, osc)
-    ogv = ogw + n * h
-    for c in range(p):
-        xc = xb[_ix(oxb + c)]
-        base = ogv + c * h
+    _add_outer(T, ogw + n * h, p, h, xb, oxb, T, osc)  # G_Vᵀ += x̄ bᵀ
+    _add_outer(T, ogw, n, h, T, od, T, os)  # G_W += δ σᵀ
+
+
+@njit(cache=True, inline="always")
+def _add_outer(G, og, rows, h, v, ov, w, ow):  # pragma: no cover - compiled
+    """G += v wᵀ for the row-major (rows × h) block ``G[og:]`` (vectorised over h)."""
+    for r in range(rows):
+        vr = v[_ix(ov + r)]
+        base = og + r * h
         for j in range(h):
-            T[_ix(base + j)] += T[_ix(osc + j)] * xc
-    for r in range(n):
-        dr = T[_ix(od + r)]
-        base = ogw + r * h
-        for j in range(h):
-            T[_ix(base + j)] += dr * T[_ix(os + j)]
+            G[_ix(base + j)] += vr * w[_ix(ow + j)]
 
 
 @njit(cache=True, inline="always")

@@ -23,6 +23,22 @@ from simgap.identifiers.activation import tanh_into
 from simgap.identifiers.errors import IdentifierError
 
 
+@njit(cache=True, inline="always")
+def mat_t_vec(M, om, rows, h, v, ov, y, oy):  # pragma: no cover - compiled
+    """Product y = Mᵀ v for the row-major (rows × h) block ``M[om:]``: y_j = Σ_r M_rj v_r.
+
+    ``v`` at ``v[ov : ov + rows]``, ``y`` written to ``y[oy : oy + h]``; summed over r in
+    order, vectorised over j.
+    """
+    for j in range(h):
+        y[_ix(oy + j)] = 0.0
+    for r in range(rows):
+        vr = v[_ix(ov + r)]
+        base = om + r * h
+        for j in range(h):
+            y[_ix(oy + j)] += M[_ix(base + j)] * vr
+
+
 @njit(cache=True, inline="always", error_model="numpy")
 def forward_keep(th, ow, n, h, p, xb, oxb, a, oa, s, os, g, og):  # pragma: no cover
     """ĝ = Ŵ tanh(V̂ x̄) from the flat weights at ``th[ow:]``, keeping the pre-activations.
@@ -32,14 +48,7 @@ def forward_keep(th, ow, n, h, p, xb, oxb, a, oa, s, os, g, og):  # pragma: no c
     (the buffers may be one array). Each pre-activation is summed over the inputs in order
     c = 0 … p−1, each output over the hidden units in order.
     """
-    ov = ow + n * h
-    for j in range(h):
-        a[_ix(oa + j)] = 0.0
-    for c in range(p):
-        xc = xb[_ix(oxb + c)]
-        base = ov + c * h
-        for j in range(h):
-            a[_ix(oa + j)] += th[_ix(base + j)] * xc
+    mat_t_vec(th, ow + n * h, p, h, xb, oxb, a, oa)  # a = V̂ x̄ (V̂ᵀ is stored)
     tanh_into(a, oa, s, os, h)
     for r in range(n):
         acc = 0.0
