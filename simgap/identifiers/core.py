@@ -90,10 +90,13 @@ class IdentifierBase:
         self._buf = np.zeros((nn, size, p + n))
         self._cnt = np.zeros((nn, K.N_COUNTERS), dtype=np.int64)
         self._act = self._state[:, K.HP_ACT]
-        #: Batches of at least PARALLEL_MIN_ROWS rows are split over numba's threads.
-        self._observer_kernel = (K.observer_step_parallel if nn >= PARALLEL_MIN_ROWS
-                                 else K.observer_step)
-        self._minibatch_kernel = K.minibatch_step_single if nn == 1 else K.minibatch_step
+        # the general kernel of this kind (compiled on first use: K.ready); batches of at least
+        # PARALLEL_MIN_ROWS rows are split over numba's threads
+        if self._minibatch:
+            self._kernel_name = "minibatch_step_single" if nn == 1 else "minibatch_step"
+        else:
+            self._kernel_name = ("observer_step_parallel" if nn >= PARALLEL_MIN_ROWS
+                                 else "observer_step")
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -150,11 +153,11 @@ class IdentifierBase:
     def _run(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray) -> None:
         """Advance the active rows; raise a typed error naming the failed rows (unchanged)."""
         try:
+            kernel = K.ready(self._kernel_name)
             if self._minibatch:
-                r, due = self._minibatch_kernel(self._state, x, u, f, x_next, self._buf,
-                                                self._cnt)
+                r, due = kernel(self._state, x, u, f, x_next, self._buf, self._cnt)
             else:
-                r = self._observer_kernel(self._state, x, u, f, x_next)
+                r = kernel(self._state, x, u, f, x_next)
                 due = 0
         except TypeError:  # not float64 C-contiguous 1-D: convert once and retry
             x, u, f, x_next = (self._coerce(a) for a in (x, u, f, x_next))
@@ -172,8 +175,9 @@ class IdentifierBase:
         rows = np.flatnonzero(self._cnt[:, DUE])
         filled = self._cnt[rows, FILLED]
         idx = self._rng.integers(0, filled[:, None], size=(rows.size, self.config.batch_size))
-        nfail = K.minibatch_sgd(self._state, self._buf, self._cnt,
-                                np.ascontiguousarray(idx, dtype=np.int64), rows.astype(np.int64))
+        nfail = K.ready("minibatch_sgd")(self._state, self._buf, self._cnt,
+                                         np.ascontiguousarray(idx, dtype=np.int64),
+                                         rows.astype(np.int64))
         self._py_updates += 1
         if nfail:
             status = self._state[rows, K.HP_STATUS]
@@ -256,7 +260,8 @@ class IdentifierBase:
         if not np.all(np.isfinite(xb2)):
             raise IdentifierError("x_bar contains non-finite values")
         res = np.empty((xb2.shape[0], self.n_states))
-        K.predict_rows(self._state[row], self.n_states, self.n_inputs, self.n_hidden, xb2, res)
+        K.ready("predict_rows")(self._state[row], self.n_states, self.n_inputs, self.n_hidden,
+                                xb2, res)
         return res[0] if single else res
 
     # ------------------------------------------------------------------ persistence

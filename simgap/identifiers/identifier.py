@@ -15,7 +15,7 @@ from simgap.identifiers import io
 from simgap.identifiers.config import IdentifierConfig
 from simgap.identifiers.core import IdentifierBase
 from simgap.identifiers.errors import IdentifierError
-from simgap.identifiers.kernels import HP_NSTEPS, HP_NUPDATES, observer_step_single
+from simgap.identifiers.kernels import HP_NSTEPS, HP_NUPDATES, ready
 
 _empty = np.empty
 
@@ -38,6 +38,8 @@ class Identifier(IdentifierBase):
                  config: IdentifierConfig | None = None, seed: int = 0) -> None:
         super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=1)
         self._g_view = self._field("g")[0]
+        # the hot path of the observer laws (compiled on first use, then from numba's cache)
+        self._step_kernel = None if self._minibatch else ready("observer_step_single")
         self._xb_view = self._field("x_bar")[0]
         self._xh_view = self._field("x_hat")[0]
         self._xt_view = self._field("x_tilde")[0]
@@ -67,7 +69,7 @@ class Identifier(IdentifierBase):
             return self._g_view.copy()
         g = _empty(self.n_states)
         try:  # the hot path: one kernel call, which also fills g
-            if not observer_step_single(self._state, x, u, f, x_next, g):
+            if not self._step_kernel(self._state, x, u, f, x_next, g):
                 return g
         except TypeError:  # not float64 C-contiguous 1-D: the general path converts
             pass

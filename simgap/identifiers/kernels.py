@@ -26,7 +26,7 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
 
 * numba's dispatcher costs ≈ 55 ns per array argument, ≈ 30 ns without numba's runtime:
   the whole state is one array, and :func:`observer_step_single` (the single identifier's
-  hot path) is compiled without the runtime (:func:`_no_runtime`);
+  hot path) is compiled without the runtime (:func:`_kernel`);
 * numba's atomic reference counting on every array binding took ≈ 25 % of a batched step:
   the runtime-enabled kernels work on owner-less views (:mod:`~simgap.identifiers._raw`);
 * loops over the hidden units vectorise only if their indices are unsigned (``_ix``: no
@@ -74,6 +74,57 @@ STATUS_DIVERGED = 3
 STATUS_STATE_DIVERGED = 4
 #: Number of counters per minibatch identifier (pos, filled, since, due).
 N_COUNTERS = 4
+
+
+#: Kernels declared with :func:`_kernel`: name → (function, signature, runtime, options).
+_DECLARED: dict = {}
+#: Names of the kernels :func:`ready` has compiled (or loaded from numba's cache).
+_READY: set = set()
+
+
+def _kernel(sig, *, runtime: bool = True, **options):
+    """Declare a kernel, compiled for ``sig`` by :func:`ready` on first use, not at import.
+
+    A fresh machine then compiles only the kernels it uses (all of them take ≈ 25 s; one
+    identifier kind ≈ 5-10 s), and numba's cache serves them afterwards.
+
+    ``runtime=False`` compiles without numba's runtime (NRT, the private ``_nrt`` option):
+    such a function cannot allocate, but its array arguments are passed without the
+    reference-counted wrappers (≈ 30 ns each) and nothing inside it counts references; a
+    single identifier's kernel call then costs ≈ 0.65 µs instead of ≈ 1.0 µs. If a numba
+    version rejects the option, :func:`ready` compiles the plain way.
+    """
+    def declare(fn):
+        _DECLARED[fn.__name__] = (fn, sig, runtime, options)
+        if not runtime:
+            try:
+                return njit(_nrt=False, **options)(fn)
+            except Exception:  # noqa: BLE001 - numba without the option: the plain way
+                pass
+        return njit(**options)(fn)
+    return declare
+
+
+def ready(name: str):
+    """The kernel ``name``, compiled for its declared signature and locked to it.
+
+    Other argument types then raise ``TypeError`` (the identifiers convert and retry).
+    """
+    disp = globals()[name]
+    if name in _READY:
+        return disp
+    fn, sig, runtime, options = _DECLARED[name]
+    try:
+        disp.compile(sig)
+    except Exception:  # noqa: BLE001 - only the runtime-free variant gets a second try
+        if runtime:
+            raise
+        disp = njit(**options)(fn)
+        disp.compile(sig)
+        globals()[name] = disp
+    disp.disable_compile()
+    _READY.add(name)
+    return disp
 
 
 @njit(cache=True, inline="always")
@@ -261,7 +312,7 @@ def _observer_rows(S, T, x, u, f, x_next, lo, hi):  # pragma: no cover - compile
 _OBS_SIG = int64(float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1])
 
 
-@njit(_OBS_SIG, cache=True, error_model="numpy")
+@_kernel(_OBS_SIG, cache=True, error_model="numpy")
 def observer_step(S, x, u, f, x_next):  # pragma: no cover - compiled
     """Advance every row by one step of the observer-based identifiers (one thread).
 
@@ -279,27 +330,11 @@ def observer_step(S, x, u, f, x_next):  # pragma: no cover - compiled
     return nfail
 
 
-def _no_runtime(sig, **options):
-    """``njit(sig, _nrt=False, **options)``: compiled without numba's runtime (NRT).
-
-    Such a function cannot allocate, but its array arguments are passed without the
-    reference-counted wrappers (≈ 30 ns each) and nothing inside it counts references: a
-    single identifier's step costs 0.69 µs instead of 1.0 µs. ``_nrt`` is a private numba
-    option; if a numba version rejects it, the function is compiled with the runtime.
-    """
-    def decorate(fn):
-        try:
-            return njit(sig, _nrt=False, **options)(fn)
-        except Exception:  # noqa: BLE001 - any failure: the plain compilation is correct too
-            return njit(sig, **options)(fn)
-    return decorate
-
-
 _OBS1_SIG = int64(float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1],
                   float64[::1])
 
 
-@_no_runtime(_OBS1_SIG, cache=True, error_model="numpy")
+@_kernel(_OBS1_SIG, runtime=False, cache=True, error_model="numpy")
 def observer_step_single(S, x, u, f, x_next, g_out):  # pragma: no cover - compiled
     """:func:`observer_step` for one identifier whose row carries its scratch columns.
 
@@ -330,12 +365,12 @@ CHUNK = 64
 _observer_rows_called = njit(cache=True, error_model="numpy")(_observer_rows.py_func)
 
 
-@njit(cache=True, error_model="numpy", parallel=True)
+@_kernel(_OBS_SIG, cache=True, error_model="numpy", parallel=True)
 def observer_step_parallel(S, x, u, f, x_next):  # pragma: no cover - compiled
     """:func:`observer_step` with the rows split over numba's threads (same row code).
 
     Chunks of :data:`CHUNK` rows, each with its own scratch. Rows are independent, so the
-    result is bit-identical to :func:`observer_step`. Compiled on first use (not at import).
+    result is bit-identical to :func:`observer_step`.
     """
     nn = S.shape[0]
     if nn == 0:
@@ -408,7 +443,7 @@ _MB_SIG = types.UniTuple(int64, 2)(float64[:, ::1], float64[::1], float64[::1], 
                                    float64[::1], float64[:, :, ::1], int64[:, ::1])
 
 
-@njit(_MB_SIG, cache=True, error_model="numpy")
+@_kernel(_MB_SIG, cache=True, error_model="numpy")
 def minibatch_step(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
     """Baseline 2, per-step part (eq. 4.2): ĝ_k = ĝ(x_k, u_k), x̂^pred_{k+1}, buffer push.
 
@@ -426,7 +461,7 @@ def minibatch_step(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
     return res
 
 
-@_no_runtime(_MB_SIG, cache=True, error_model="numpy")
+@_kernel(_MB_SIG, runtime=False, cache=True, error_model="numpy")
 def minibatch_step_single(S, x, u, f, x_next, buf, cnt):  # pragma: no cover - compiled
     """:func:`minibatch_step` for one identifier whose row carries its scratch columns."""
     size = row_layout(int(S[0, HP_N]), int(S[0, HP_M]), int(S[0, HP_H]))[-1]
@@ -440,7 +475,7 @@ _SGD_SIG = int64(float64[:, ::1], float64[:, :, ::1], int64[:, ::1], int64[:, ::
                  int64[::1])
 
 
-@njit(_SGD_SIG, cache=True, error_model="numpy")
+@_kernel(_SGD_SIG, cache=True, error_model="numpy")
 def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
     """Baseline 2, burst part (eq. 4.3-4.4): one SGD step for each row in ``rows``.
 
@@ -480,7 +515,7 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
 _PRED_SIG = types.void(float64[::1], int64, int64, int64, float64[:, ::1], float64[:, ::1])
 
 
-@njit(_PRED_SIG, cache=True, error_model="numpy")
+@_kernel(_PRED_SIG, cache=True, error_model="numpy")
 def predict_rows(R, n, m, h, xbar, res):  # pragma: no cover - compiled
     """ĝ for each row of ``xbar`` (K, p) with the weights of state row ``R`` (step's code)."""
     s = np.empty(h)

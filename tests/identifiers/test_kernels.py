@@ -35,8 +35,8 @@ def test_threaded_kernel_is_bit_identical_to_the_serial_one(kind):
             x = x.copy()
             x[4 * 5 + 1] = np.nan  # row 5 fails and stays as it was
         before = s_serial[5].copy()
-        r1 = K.observer_step(s_serial, x, u, f, xn)
-        r2 = K.observer_step_parallel(s_thread, x, u, f, xn)
+        r1 = K.ready("observer_step")(s_serial, x, u, f, xn)
+        r2 = K.ready("observer_step_parallel")(s_thread, x, u, f, xn)
         assert r1 == r2 == (1 if k == 20 else 0)
         size = K.layout(4, 2, 20)["size"]  # the scratch columns after it differ, by design
         np.testing.assert_array_equal(s_serial[:, :size], s_thread[:, :size])
@@ -82,7 +82,7 @@ def test_single_identifier_rows_carry_scratch_columns_batches_do_not():
 
 def test_wrong_sizes_are_rejected_by_the_kernel():
     ident = make_identifier("integral", 4, 2, 0.002)
-    assert K.observer_step(ident._state, np.zeros(4), np.zeros(3), np.zeros(4),
+    assert K.ready("observer_step")(ident._state, np.zeros(4), np.zeros(3), np.zeros(4),
                            np.zeros(4)) == -1
     with pytest.raises(IdentifierError, match="expected x, f, x_next with 4"):
         ident.step(np.zeros(4), np.zeros(3), np.zeros(4), np.zeros(4))
