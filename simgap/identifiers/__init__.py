@@ -90,7 +90,11 @@ of shape (N, …) and advances them with the same numba row code (``N = 1`` for 
 are real transitions (rows with ``learn[i] == False`` change nothing at all). From
 ``PARALLEL_MIN_ROWS`` = 256 rows up, the observer laws split the rows over numba's threads
 (``numba.set_num_threads`` limits them); rows are independent, so the result is the same bit
-for bit. The threaded kernel is compiled on first use (≈ 10 s once; cached afterwards).
+for bit.
+
+The numba kernels compile on first use, not at import: on a fresh machine the first
+identifier of a kind takes ≈ 7 s (the threaded batch kernel ≈ 10 s); numba's cache serves
+them afterwards.
 """
 
 from simgap.identifiers.batch import BatchIdentifier
