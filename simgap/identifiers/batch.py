@@ -27,11 +27,23 @@ class BatchIdentifier(IdentifierBase):
         kind: ``"instantaneous" | "integral" | "minibatch"``.
         n_envs: N.
         n_states, n_inputs, dt, config, seed: as for :func:`~simgap.identifiers.make_identifier`.
+        threads: split the rows of the observer laws over numba's threads (bit-identical
+            results). ``None``: from ``PARALLEL_MIN_ROWS`` = 256 rows up. numba's threads use
+            GNU OpenMP here, and a process that forks after using them has its children
+            killed ("fork() called from a process already using GNU OpenMP"): pass
+            ``threads=False`` if this process will fork workers later (e.g. a
+            ``gym.vector.AsyncVectorEnv`` created after stepping the batch), or start them
+            with ``"spawn"`` / ``"forkserver"``.
     """
 
     def __init__(self, kind: str, n_envs: int, n_states: int, n_inputs: int, dt: float, *,
-                 config: IdentifierConfig | None = None, seed: int = 0) -> None:
+                 config: IdentifierConfig | None = None, seed: int = 0,
+                 threads: bool | None = None) -> None:
         super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=n_envs)
+        if threads is not None and not isinstance(threads, bool):
+            raise IdentifierError(f"threads must be True, False or None, got {threads!r}")
+        if threads is not None and not self._minibatch:
+            self._kernel_name = "observer_step_parallel" if threads else "observer_step"
 
     def step(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray,
              learn: np.ndarray | None = None) -> np.ndarray:

@@ -46,11 +46,13 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         config: identifier config (default: the thesis preset for the model).
         seed: seed of the (shared) initial weights.
         reset_identifier_on_seed: a seeded reset restores the reset point (default True).
+        threads: passed to :class:`~simgap.identifiers.BatchIdentifier` (``None``: numba's
+            threads from 256 sub-envs up; ``False`` if this process forks workers later).
     """
 
     def __init__(self, env: gym.vector.VectorEnv, identifier: str = "integral", *,
                  frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True) -> None:
+                 reset_identifier_on_seed: bool = True, threads: bool | None = None) -> None:
         super().__init__(env)
         models = tuple(env.get_attr("nominal_model"))
         for mdl in models:
@@ -67,7 +69,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         if config is None:
             config = preset(PRESET_FOR_MODEL.get(getattr(m0, "name", ""), "manipulator"), kind)
         self.identifier = BatchIdentifier(kind, env.num_envs, n, m, m0.dt, config=config,
-                                          seed=seed)
+                                          seed=seed, threads=threads)
         if frozen:
             self.identifier.freeze()
         self.reset_identifier_on_seed = bool(reset_identifier_on_seed)

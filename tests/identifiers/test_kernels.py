@@ -101,3 +101,17 @@ def test_tracked_weight_norms_stay_equal_to_the_exact_ones(kind):
     tracked = ident._state[0, K.HP_NORM2:K.HP_NORM2 + 2]
     np.testing.assert_allclose(tracked, [np.sum(W * W), np.sum(V * V)], rtol=1e-9)
     assert np.abs(W - W0).max() > 1e-6  # the weights did move
+
+
+def test_threads_choice_gives_the_same_bits():
+    runs = []
+    for threads in (None, True, False):
+        ident = BatchIdentifier("integral", 40, 4, 2, 0.002, seed=2, threads=threads)
+        rng = np.random.default_rng(9)  # the same inputs for each choice
+        for _ in range(20):
+            ident.step(*_inputs(rng, 40))
+        runs.append(ident.W)
+    np.testing.assert_array_equal(runs[0], runs[1])
+    np.testing.assert_array_equal(runs[0], runs[2])
+    with pytest.raises(IdentifierError, match="threads must be"):
+        BatchIdentifier("integral", 4, 4, 2, 0.002, threads=1)
