@@ -137,6 +137,22 @@ def manipulator_pretrain(kind: str, seconds: float, *, seed: int = 0) -> Identif
     return wrapped.identifier
 
 
+def _compensating(env: Any, identifier: Identifier | str, online: bool, seed: int
+                  ) -> tuple[IdentifierWrapper, ResidualNetwork]:
+    """Wrap ``env`` with ``identifier`` and the residual network a controller compensates with.
+
+    A kind name gives a fresh identifier that learns; an :class:`Identifier` learns only if
+    ``online``, else it stays frozen.
+    """
+    wrapped = IdentifierWrapper(env, identifier, seed=seed, reset_identifier_on_seed=False)
+    live = isinstance(identifier, str) or online
+    if live:
+        wrapped.unfreeze()
+    else:
+        wrapped.freeze()
+    return wrapped, ResidualNetwork(wrapped.identifier, online=live)
+
+
 def manipulator_tracking(identifier: Identifier | str | None, seconds: float, *,
                          online: bool = False, seed: int = 0,
                          reference: Any = None) -> Rollout:
@@ -159,15 +175,8 @@ def manipulator_tracking(identifier: Identifier | str | None, seconds: float, *,
     if identifier == TRUE_RESIDUAL:
         return rollout(env, CompensatedFeedbackLinearization(base, TrueResidual(env)), n,
                        seed=seed)
-    wrapped = IdentifierWrapper(env, identifier, seed=seed, reset_identifier_on_seed=False)
-    live = isinstance(identifier, str) or online
-    if live:
-        wrapped.unfreeze()
-    else:
-        wrapped.freeze()
-    ctrl = CompensatedFeedbackLinearization(
-        base, ResidualNetwork(wrapped.identifier, online=live))
-    return rollout(wrapped, ctrl, n, seed=seed)
+    wrapped, residual = _compensating(env, identifier, online, seed)
+    return rollout(wrapped, CompensatedFeedbackLinearization(base, residual), n, seed=seed)
 
 
 def manipulator_rmse(ro: Rollout) -> float:
@@ -220,13 +229,7 @@ def bicycle_tracking(policy_kind: str, task: BicycleTask, seconds: float, *,
         else:
             residual = TrueResidual(env)
     elif identifier is not None:
-        run_env = IdentifierWrapper(env, identifier, seed=seed, reset_identifier_on_seed=False)
-        live = isinstance(identifier, str) or online
-        if live:
-            run_env.unfreeze()
-        else:
-            run_env.freeze()
-        residual = ResidualNetwork(run_env.identifier, online=live)
+        run_env, residual = _compensating(env, identifier, online, seed)
     if policy_kind == "inversion":
         ctrl: Any = YawRateController(model, task.reference, residual)
     elif policy_kind == "mpc":

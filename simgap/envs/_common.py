@@ -45,6 +45,27 @@ def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str)
     return out
 
 
+def state_option(options: dict | None, size: int, what: str) -> np.ndarray | None:
+    """``options["state"]`` of a ``reset`` as a float64 array (size,), or None if not given.
+
+    Args:
+        options: the ``options`` passed to ``reset``.
+        size: the number of state values.
+        what: the values' names and units for the error message, e.g. ``"vy m/s, r rad/s"``.
+
+    Raises:
+        ValueError: wrong size or a non-finite value.
+    """
+    state = None if options is None else options.get("state")
+    if state is None:
+        return None
+    x = np.array(state, dtype=np.float64)
+    if x.shape != (size,) or not np.all(np.isfinite(x)):
+        raise ValueError(f"options['state'] must be {size} finite values ({what}), "
+                         f"got {state!r}")
+    return x
+
+
 def check_count(name: str, value: object) -> int:
     """Return ``value`` as an int >= 1, or raise ``ValueError``."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) < 1:

@@ -21,6 +21,7 @@ from simgap.envs._common import (
     check_pair,
     check_render_mode,
     prepare_action,
+    state_option,
 )
 from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import YawRateReference
@@ -157,12 +158,8 @@ class BicycleTireEnv(PlantEnv):
         super().reset(seed=seed)
         self._k = 0
         s = np.zeros(6)
-        state = None if options is None else options.get("state")
-        if state is not None:
-            x = np.asarray(state, dtype=np.float64)
-            if x.shape != (2,) or not np.all(np.isfinite(x)):
-                raise ValueError(f"options['state'] must be 2 finite values (vy m/s, r rad/s), "
-                                 f"got {state!r}")
+        x = state_option(options, 2, "vy m/s, r rad/s")
+        if x is not None:
             s[:2] = x
             # relaxation lags start at the steady-state slip of that motion (zero steering)
             s[2], s[3] = slip_angles(x[0], x[1], 0.0, 0.0, self.vx, self.true_params.lf,

@@ -21,6 +21,7 @@ from simgap.envs._common import (
     check_pair,
     check_render_mode,
     prepare_action,
+    state_option,
 )
 from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import QuinticReference, _sample_reference
@@ -136,13 +137,9 @@ class ManipulatorFrictionEnv(PlantEnv):
         super().reset(seed=seed)
         self._k = 0
         ref = np.asarray(self._ref_sample(0.0), dtype=np.float64)
-        state = None if options is None else options.get("state")
-        if state is not None:
-            s = np.asarray(state, dtype=np.float64)
-            if s.shape != (4,) or not np.all(np.isfinite(s)):
-                raise ValueError(f"options['state'] must be 4 finite values (q1, q2, dq1, dq2), "
-                                 f"got {state!r}")
-            self._s = s.copy()
+        s = state_option(options, 4, "q1, q2, dq1, dq2")
+        if s is not None:
+            self._s = s
         else:
             q = ref[0:2] + self.np_random.uniform(-self.init_noise, self.init_noise, size=2)
             self._s = np.concatenate([q, ref[2:4]])

@@ -22,6 +22,16 @@ class _AggRenderer:
         self.canvas = FigureCanvasAgg(self.fig)
         self.ax = self.fig.add_axes((0.17, 0.12, 0.78, 0.72))
 
+    def _square_view(self, half: float, xlabel: str, ylabel: str) -> None:
+        """Equal-aspect axes spanning [−half, half] in both directions (m), gridded."""
+        ax = self.ax
+        ax.set_xlim(-half, half)
+        ax.set_ylim(-half, half)
+        ax.set_aspect("equal")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+
     def frame(self) -> np.ndarray:
         """Rasterise the figure to an HxWx3 uint8 array."""
         self.canvas.draw()
@@ -44,14 +54,8 @@ class ArmRenderer(_AggRenderer):
     def __init__(self, l1: float, l2: float, size: int = 400) -> None:
         super().__init__(size)
         self.l1, self.l2 = float(l1), float(l2)
-        reach = 1.15 * (self.l1 + self.l2)
+        self._square_view(1.15 * (self.l1 + self.l2), "x (m)", "y (m)")
         ax = self.ax
-        ax.set_xlim(-reach, reach)
-        ax.set_ylim(-reach, reach)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        ax.grid(alpha=0.3)
         (self._ref_line,) = ax.plot([], [], "--o", color="tab:gray", lw=2, ms=4,
                                     label="reference q_d")
         (self._arm_line,) = ax.plot([], [], "-o", color="tab:blue", lw=5, ms=8, label="arm q")
@@ -96,14 +100,9 @@ class CarRenderer(_AggRenderer):
                  size: int = 400) -> None:
         super().__init__(size)
         self.lf, self.lr, self.k = float(lf), float(lr), float(force_scale)
+        self._square_view(1.6 * max(lf, lr) + 1.0, "lateral y_body (m), left ←",
+                          "longitudinal x_body (m)")
         ax = self.ax
-        half = 1.6 * max(lf, lr) + 1.0
-        ax.set_xlim(-half, half)
-        ax.set_ylim(-half, half)
-        ax.set_aspect("equal")
-        ax.set_xlabel("lateral y_body (m), left ←")
-        ax.set_ylabel("longitudinal x_body (m)")
-        ax.grid(alpha=0.3)
         w = 0.9
         body = [(-w, -lr - 0.9), (w, -lr - 0.9), (w, lf + 0.9), (-w, lf + 0.9)]
         ax.add_patch(Polygon(self._flip(np.array(body)), closed=True, fc="0.85", ec="k"))
