@@ -16,7 +16,7 @@ $(PY):
 
 # torch is pinned to the provided CPU wheel (an unpinned torch pulls GBs of CUDA) and must be
 # installed before stable-baselines3 (extra "rl") so that pip does not pick another build.
-$(STAMP): pyproject.toml | $(PY)
+$(STAMP): pyproject.toml setup.py simgap/identifiers/_call.c | $(PY)
 	$(PY) -m pip install --upgrade pip setuptools wheel
 	$(PY) -m pip install torch==2.13.0
 	$(PY) -m pip install -e ".[dev,rl,highway]"

@@ -6,8 +6,11 @@
   mean, p50, p99, p99.9, max in µs. The same runs are also timed as whole loops
   (``loop_timed_mean_us``: the mean without the per-call timer). Baseline 2's burst steps
   (those with an SGD update) are also reported separately, and for the observer laws the
-  mean of the bare numba kernel call (``observer_step_single``) on the same transitions, to
-  split the kernel from the Python method around it (which allocates the returned ĝ).
+  mean of the bare calls on the same transitions (the C caller ``_call.Stepper``, which
+  allocates ĝ, and the numba kernel ``observer_step_single`` through numba's dispatcher), to
+  split them from the Python method around them; and the loop-timed mean through numba's
+  dispatcher instead of the C caller (``dispatcher_path_loop_timed_mean_us``: the speed
+  without the optional C extension). ``call_path`` says which path ``Identifier.step`` took.
 * batched: ``BatchIdentifier.step`` with N = 1024 rows, µs per instance-step (the API call,
   which splits the rows of the observer laws over numba's threads from 256 rows up), and the
   bare kernel calls without the Python wrapper on one thread and on all threads; best and
@@ -38,13 +41,15 @@ from rich.console import Console
 
 import simgap  # noqa: F401 - registers the envs
 from simgap.envs.scenarios import FeedbackLinearizationController
-from simgap.identifiers import KINDS, BatchIdentifier, make_identifier, preset
+from simgap.identifiers import KINDS, BatchIdentifier, fastcall, make_identifier, preset
 from simgap.identifiers import kernels as K
 from simgap.wrappers import IdentifierWrapper
 
 #: Repeats of the throughput measurements; "best" is the least-contended repeat (as
 #: ``timeit`` reports), "median" the typical one on the shared machine.
 REPEATS = 5
+#: Repeats of the batched measurements (each ≈ 0.05 s: more of them steady the median).
+BATCH_REPEATS = 15
 
 
 def record(steps: int):
@@ -96,19 +101,16 @@ def per_step(kind: str, x, u, f, runs: int) -> dict:
             i += 1
     # the same runs timed as whole loops: the mean cost of a step without the per-call
     # timer (whose own cost and cache disturbance the per-call figures above include)
-    loop_us = []
-    for run in range(runs):
-        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind),
-                                seed=run)
-        step = ident.step
-        t0 = clock()
-        for xk, uk, fk, xn in rows:
-            step(xk, uk, fk, xn)
-        loop_us.append((clock() - t0) / steps / 1e3)
+    loop_us = loop_means(kind, rows, runs)
     out = {"all": stats(times),
            "loop_timed_mean_us": float(np.mean(loop_us)),
            "loop_timed_median_of_runs_us": float(np.median(loop_us))}
-    if kind != "minibatch":  # the same transitions through the bare kernel call (N = 1)
+    if kind != "minibatch":
+        # the same loops through numba's dispatcher instead of the C caller (the path taken
+        # when simgap/identifiers/_call.c is not built)
+        disp = loop_means(kind, rows, runs, dispatcher=True)
+        out["dispatcher_path_loop_timed_mean_us"] = float(np.mean(disp))
+        # the same transitions through the bare calls, without the Identifier.step method
         ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
         g = np.empty(4)
         args = [(ident._state, xk, uk, fk, xn, g) for xk, uk, fk, xn in rows]
@@ -117,9 +119,34 @@ def per_step(kind: str, x, u, f, runs: int) -> dict:
         for a in args:
             kern(*a)
         out["bare_kernel_call_mean_us"] = (time.perf_counter() - t0) / len(args) * 1e6
+        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind))
+        if ident._hot is not None:
+            hot = ident._hot
+            t0 = time.perf_counter()
+            for xk, uk, fk, xn in rows:
+                hot(xk, uk, fk, xn)
+            out["bare_c_caller_call_mean_us"] = (time.perf_counter() - t0) / len(rows) * 1e6
     if kind == "minibatch":
         out["burst_steps"] = stats(times[burst])
         out["non_burst_steps"] = stats(times[~burst])
+    return out
+
+
+def loop_means(kind: str, rows: list, runs: int, dispatcher: bool = False) -> list[float]:
+    """Per-step mean (µs) of each run timed as one loop; ``dispatcher``: without the C caller."""
+    clock = time.perf_counter_ns
+    out = []
+    for run in range(runs):
+        ident = make_identifier(kind, 4, 2, 0.002, config=preset("manipulator", kind),
+                                seed=run)
+        if dispatcher:
+            ident._hot = None
+            ident._step_kernel = K.ready("observer_step_single")
+        step = ident.step
+        t0 = clock()
+        for xk, uk, fk, xn in rows:
+            step(xk, uk, fk, xn)
+        out.append((clock() - t0) / len(rows) / 1e3)
     return out
 
 
@@ -133,23 +160,26 @@ def batched(kind: str, n_env: int, reps: int) -> dict:
     xn = x + 0.002 * f
     ident.step(x, u, f, xn)
 
-    def timed(fn) -> dict[str, float]:
-        per = []
-        for _ in range(REPEATS):
-            t0 = time.perf_counter()
-            for _ in range(reps):
-                fn()
-            per.append((time.perf_counter() - t0) / reps / n_env * 1e6)
-        return {"best_us": min(per), "median_us": float(np.median(per))}
-
-    res = {"n_envs": n_env, "repeats": REPEATS, "calls_per_repeat": reps,
-           "api_us_per_instance_step": timed(lambda: ident.step(x, u, f, xn))}
+    calls = {"api_us_per_instance_step": lambda: ident.step(x, u, f, xn)}
     if kind != "minibatch":
         xf, uf, ff, xnf = (a.reshape(-1) for a in (x, u, f, xn))
         args = (ident._state, xf, uf, ff, xnf)
         serial, threaded = K.ready("observer_step"), K.ready("observer_step_parallel")
-        res["kernel_one_thread_us_per_instance_step"] = timed(lambda: serial(*args))
-        res["kernel_all_threads_us_per_instance_step"] = timed(lambda: threaded(*args))
+        calls["kernel_one_thread_us_per_instance_step"] = lambda: serial(*args)
+        calls["kernel_all_threads_us_per_instance_step"] = lambda: threaded(*args)
+    # the calls take turns within each repeat, so a disturbed stretch of time hits all of
+    # them rather than one
+    per: dict[str, list[float]] = {name: [] for name in calls}
+    for _ in range(BATCH_REPEATS):
+        for name, fn in calls.items():
+            t0 = time.perf_counter()
+            for _ in range(reps):
+                fn()
+            per[name].append((time.perf_counter() - t0) / reps / n_env * 1e6)
+    res = {"n_envs": n_env, "repeats": BATCH_REPEATS, "calls_per_repeat": reps}
+    res.update({name: {"best_us": min(v), "median_us": float(np.median(v))}
+                for name, v in per.items()})
+    if kind != "minibatch":
         res["threads"] = numba.get_num_threads()
     return res
 
@@ -192,6 +222,8 @@ def main() -> None:
                     "load_average_1min": os.getloadavg()[0],
                     "note": "2 cores shared with other jobs; timings noisy"},
         "timer_overhead_ns_p50": float(np.percentile(t, 50)),
+        "call_path": ("C caller (simgap.identifiers._call)" if fastcall.available()
+                      else f"numba dispatcher: {fastcall.UNAVAILABLE}"),
         "per_step": {}, "batched": {}, "env_steps_per_s": {},
         "targets": {"integral_mean_us": 1.2, "integral_p999_us": 5.0,
                     "batched_us_per_instance_step": 0.3, "wrapped_env_steps_per_s": 20000},

@@ -21,6 +21,9 @@ from simgap.identifiers.network import init_weights
 #: independent, so the result is the same bit for bit); smaller ones on the calling thread.
 PARALLEL_MIN_ROWS = 256
 
+#: The row index array of a single identifier's SGD burst (read by the kernel only).
+_ROW0 = np.zeros(1, dtype=np.int64)
+
 #: Format tag written into saved files.
 FORMAT = "simgap-identifier/2"
 
@@ -89,7 +92,7 @@ class IdentifierBase:
         size = config.buffer_size if self._minibatch else 1
         self._buf = np.zeros((nn, size, p + n))
         self._cnt = np.zeros((nn, K.N_COUNTERS), dtype=np.int64)
-        self._act = self._state[:, K.HP_ACT]
+        self._bind()
         # the general kernel of this kind (compiled on first use: K.ready); batches of at least
         # PARALLEL_MIN_ROWS rows are split over numba's threads
         if self._minibatch:
@@ -98,6 +101,25 @@ class IdentifierBase:
             self._kernel_name = ("observer_step_parallel" if nn >= PARALLEL_MIN_ROWS
                                  else "observer_step")
         self.reset()
+
+    #: Attributes derived from ``_state`` (views into it, the fast-path caller): not copied
+    #: by pickle / ``copy.deepcopy``, rebuilt by :meth:`_bind` (a copied view would no longer
+    #: look into the copy's state).
+    _DERIVED: tuple[str, ...] = ("_act",)
+
+    def _bind(self) -> None:
+        """(Re)build the attributes of :data:`_DERIVED` on ``self._state``."""
+        self._act = self._state[:, K.HP_ACT]
+
+    def __getstate__(self) -> dict[str, Any]:
+        d = self.__dict__.copy()
+        for key in self._DERIVED:
+            d.pop(key, None)
+        return d
+
+    def __setstate__(self, d: dict[str, Any]) -> None:
+        self.__dict__.update(d)
+        self._bind()
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self) -> None:
@@ -150,7 +172,8 @@ class IdentifierBase:
         self._act[:] = K.LEARN
 
     # ------------------------------------------------------------------ kernel calls
-    def _run(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray) -> None:
+    def _run(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray, *,
+             converted: bool = False) -> None:
         """Advance the active rows; raise a typed error naming the failed rows (unchanged)."""
         try:
             kernel = K.ready(self._kernel_name)
@@ -159,9 +182,11 @@ class IdentifierBase:
             else:
                 r = kernel(self._state, x, u, f, x_next)
                 due = 0
-        except TypeError:  # not float64 C-contiguous 1-D: convert once and retry
+        except TypeError:  # not writeable float64 C-contiguous 1-D: convert once and retry
+            if converted:
+                raise
             x, u, f, x_next = (self._coerce(a) for a in (x, u, f, x_next))
-            return self._run(x, u, f, x_next)
+            return self._run(x, u, f, x_next, converted=True)
         if r != 0:
             self._raise(r, x, u, f, x_next)
         if due:
@@ -172,12 +197,17 @@ class IdentifierBase:
 
         Eq. 4.3-4.4; indices uniform with replacement over each row's filled buffer.
         """
-        rows = np.flatnonzero(self._cnt[:, DUE])
-        filled = self._cnt[rows, FILLED]
-        idx = self._rng.integers(0, filled[:, None], size=(rows.size, self.config.batch_size))
+        size = self.config.batch_size
+        if self.n_envs == 1:  # row 0 is due; a scalar bound draws the same numbers, faster
+            rows = _ROW0
+            idx = self._rng.integers(0, int(self._cnt[0, FILLED]), size=(1, size))
+        else:
+            rows = np.flatnonzero(self._cnt[:, DUE])
+            filled = self._cnt[rows, FILLED]
+            idx = self._rng.integers(0, filled[:, None], size=(rows.size, size))
         nfail = K.ready("minibatch_sgd")(self._state, self._buf, self._cnt,
                                          np.ascontiguousarray(idx, dtype=np.int64),
-                                         rows.astype(np.int64))
+                                         rows.astype(np.int64, copy=False))
         self._py_updates += 1
         if nfail:
             status = self._state[rows, K.HP_STATUS]
@@ -191,7 +221,12 @@ class IdentifierBase:
 
     @staticmethod
     def _coerce(a: Any) -> np.ndarray:
-        return np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+        """``a`` as a flat, writeable float64 C-contiguous array, as numba requires.
+
+        A read-only array (``np.frombuffer``, a broadcast) is copied.
+        """
+        b = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+        return b if b.flags.writeable else b.copy()
 
     def _raise(self, r: int, x: np.ndarray, u: np.ndarray, f: np.ndarray,
                x_next: np.ndarray) -> None:

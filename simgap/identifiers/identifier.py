@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simgap.identifiers import io
+from simgap.identifiers import fastcall, io
 from simgap.identifiers.config import IdentifierConfig
 from simgap.identifiers.core import IdentifierBase
 from simgap.identifiers.errors import IdentifierError
@@ -34,16 +34,26 @@ class Identifier(IdentifierBase):
         seed: seed of the initial weights (and of baseline 2's sampling Generator).
     """
 
+    _DERIVED = (*IdentifierBase._DERIVED, "_g_view", "_xb_view", "_xh_view", "_xt_view",
+                "_e_view", "_hot", "_step_kernel")
+
     def __init__(self, kind: str, n_states: int, n_inputs: int, dt: float, *,
                  config: IdentifierConfig | None = None, seed: int = 0) -> None:
         super().__init__(kind, n_states, n_inputs, dt, config=config, seed=seed, n_envs=1)
+
+    def _bind(self) -> None:
+        super()._bind()
         self._g_view = self._field("g")[0]
-        # the hot path of the observer laws (compiled on first use, then from numba's cache)
-        self._step_kernel = None if self._minibatch else ready("observer_step_single")
         self._xb_view = self._field("x_bar")[0]
         self._xh_view = self._field("x_hat")[0]
         self._xt_view = self._field("x_tilde")[0]
         self._e_view = self._field("e")[0]
+        # the hot path of the observer laws (compiled on first use, then from numba's cache):
+        # the C caller if it is built (fastcall), else numba's dispatcher
+        self._hot = (None if self._minibatch
+                     else fastcall.observer_stepper(self._state, self.n_states))
+        self._step_kernel = (None if self._minibatch or self._hot is not None
+                             else ready("observer_step_single"))
 
     def step(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray
              ) -> np.ndarray:
@@ -64,15 +74,18 @@ class Identifier(IdentifierBase):
             IdentifierDivergedError: the update would make x̂ non-finite or a weight norm
                 exceed ``config.max_weight_norm`` (identifier unchanged).
         """
-        if self._minibatch:
-            self._run(x, u, f, x_next)
-            return self._g_view.copy()
-        g = _empty(self.n_states)
-        try:  # the hot path: one kernel call, which also fills g
-            if not self._step_kernel(self._state, x, u, f, x_next, g):
+        hot = self._hot
+        if hot is not None:  # the C caller: one kernel call, which also allocates and fills g
+            g = hot(x, u, f, x_next)
+            if g is not None:
                 return g
-        except TypeError:  # not float64 C-contiguous 1-D: the general path converts
-            pass
+        elif not self._minibatch:  # numba's dispatcher
+            g = _empty(self.n_states)
+            try:
+                if not self._step_kernel(self._state, x, u, f, x_next, g):
+                    return g
+            except TypeError:  # not float64 C-contiguous 1-D: the general path converts
+                pass
         self._run(x, u, f, x_next)  # converts and retries, or raises the typed error
         return self._g_view.copy()
 

@@ -42,7 +42,7 @@ A row that fails (non-finite input, divergence) is left exactly as it was before
 from __future__ import annotations
 
 import numpy as np
-from numba import float64, int64, njit, prange, types
+from numba import carray, cfunc, float64, int64, njit, prange, types
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 from simgap.identifiers._raw import raw
@@ -334,19 +334,16 @@ _OBS1_SIG = int64(float64[:, ::1], float64[::1], float64[::1], float64[::1], flo
                   float64[::1])
 
 
-@_kernel(_OBS1_SIG, runtime=False, cache=True, error_model="numpy")
-def observer_step_single(S, x, u, f, x_next, g_out):  # pragma: no cover - compiled
-    """:func:`observer_step` for one identifier whose row carries its scratch columns.
-
-    The hot path of ``Identifier.step`` (same row code); also copies ĝ_k into ``g_out``
-    (n), the array the step returns. Returns 0, 1 (failed; the status says why; ``g_out``
-    untouched) or −1 (sizes do not fit, or no scratch columns).
-    """
+@njit(cache=True, inline="always", error_model="numpy")
+def _observer_single(S, x, u, f, x_next, g_out):  # pragma: no cover - compiled
+    """Body of :func:`observer_step_single` and of its C-ABI twin (:func:`c_observer_step`)."""
+    if S.shape[0] != 1 or S.shape[1] <= HP_SIZE:
+        return -1
     n = int(S[0, HP_N])
     m = int(S[0, HP_M])
     h = int(S[0, HP_H])
     size = row_layout(n, m, h)[-1]
-    if (S.shape[0] != 1 or S.shape[1] == size or g_out.shape[0] != n
+    if (S.shape[1] == size or g_out.shape[0] != n
             or not _sizes_ok(S, x, u, f, x_next, n, m, h)):
         return -1
     r = _observer_rows(S, S[0, size:], x, u, f, x_next, 0, 1)
@@ -355,6 +352,45 @@ def observer_step_single(S, x, u, f, x_next, g_out):  # pragma: no cover - compi
         for k in range(n):
             g_out[k] = S[0, og + k]
     return r
+
+
+@_kernel(_OBS1_SIG, runtime=False, cache=True, error_model="numpy")
+def observer_step_single(S, x, u, f, x_next, g_out):  # pragma: no cover - compiled
+    """:func:`observer_step` for one identifier whose row carries its scratch columns.
+
+    The hot path of ``Identifier.step`` when the C caller is not built (same row code); also
+    copies ĝ_k into ``g_out`` (n), the array the step returns. Returns 0, 1 (failed; the
+    status says why; ``g_out`` untouched) or −1 (sizes do not fit, or no scratch columns).
+    """
+    return _observer_single(S, x, u, f, x_next, g_out)
+
+
+_F8P = types.CPointer(float64)
+#: C ABI of :func:`c_observer_step` (the C caller ``_call.c`` declares the same).
+C_OBS1_SIG = int64(_F8P, int64, int64, _F8P, int64, _F8P, int64, _F8P, int64, _F8P, int64,
+                   _F8P, int64)
+_C_KERNELS: dict = {}
+
+
+def _c_observer_step(sp, rows, cols, xp, nx, up, nu, fp, nf, xnp, nxn, gp,
+                     ng):  # pragma: no cover - compiled by c_observer_step
+    return _observer_single(carray(sp, (rows, cols)), carray(xp, nx), carray(up, nu),
+                            carray(fp, nf), carray(xnp, nxn), carray(gp, ng))
+
+
+def c_observer_step():
+    """:func:`observer_step_single` as a C function (a numba ``cfunc``), built on first use.
+
+    Signature :data:`C_OBS1_SIG`: (S, rows, cols, x, len, u, len, f, len, x_next, len, ĝ,
+    len) with data pointers and lengths; same body, same result codes. Called by the C
+    caller ``simgap.identifiers._call`` (see :mod:`~simgap.identifiers.fastcall`), which
+    skips numba's dispatcher. Returns the numba ``CFunc`` (keep it alive while its
+    ``address`` is in use; this module keeps it).
+    """
+    if "observer" not in _C_KERNELS:
+        _C_KERNELS["observer"] = cfunc(C_OBS1_SIG, cache=True,
+                                       error_model="numpy")(_c_observer_step)
+    return _C_KERNELS["observer"]
 
 
 #: Rows per thread task of :func:`observer_step_parallel`.

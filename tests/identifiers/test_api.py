@@ -242,3 +242,42 @@ def test_batch_save_load_continues_identically(tmp_path):
     np.testing.assert_array_equal(a.W, b.W)
     with pytest.raises(IdentifierError, match="BatchIdentifier"):
         load_identifier(tmp_path / "batch.npz")
+
+
+@pytest.mark.parametrize("kind", ["instantaneous", "integral", "minibatch"])
+def test_read_only_and_broadcast_inputs_are_accepted(kind):
+    # read-only arrays (np.frombuffer, broadcasts, pandas buffers) once recursed without end
+    def ro(a):
+        return np.frombuffer(np.asarray(a, dtype=np.float64).tobytes())
+
+    x, u = np.linspace(0.1, 0.4, 4), np.array([0.3, -0.2])
+    ref = make_identifier(kind, 4, 2, 0.002)
+    one = make_identifier(kind, 4, 2, 0.002)
+    np.testing.assert_array_equal(one.step(ro(x), ro(u), ro(x), ro(x)), ref.step(x, u, x, x))
+    batch = BatchIdentifier(kind, 3, 4, 2, 0.002)
+    xb, ub = np.broadcast_to(x, (3, 4)), np.broadcast_to(u, (3, 2))
+    g = batch.step(xb, ub, xb, xb)
+    np.testing.assert_array_equal(g, np.broadcast_to(ref.g_hat, (3, 4)))
+
+
+@pytest.mark.parametrize("kind", ["integral", "minibatch"])
+def test_copies_and_pickles_continue_identically_and_own_their_state(kind):
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(5)
+    rows = [(rng.normal(size=4), rng.normal(size=2), rng.normal(size=4), rng.normal(size=4))
+            for _ in range(60)]
+    ident = make_identifier(kind, 4, 2, 0.002)
+    for r in rows[:30]:
+        ident.step(*r)
+    for twin in (copy.deepcopy(ident), pickle.loads(pickle.dumps(ident))):
+        twin.freeze()  # must act on the twin's own state, not on the original's
+        ref = copy.deepcopy(ident)
+        ref.freeze()
+        for r in rows[30:]:
+            np.testing.assert_array_equal(twin.step(*r), ref.step(*r))
+        np.testing.assert_array_equal(twin.W, ref.W)
+        np.testing.assert_array_equal(twin.g_hat, ref.g_hat)
+        assert twin.n_steps == 60 and not np.shares_memory(twin._state, ident._state)
+    assert ident.n_steps == 30 and not ident.frozen
