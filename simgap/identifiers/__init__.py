@@ -93,8 +93,11 @@ are real transitions (rows with ``learn[i] == False`` change nothing at all). Fr
 for bit.
 
 The numba kernels compile on first use, not at import: on a fresh machine the first
-identifier of a kind takes ≈ 7 s (the threaded batch kernel ≈ 10 s); numba's cache serves
-them afterwards.
+identifier of a kind takes ≈ 7-10 s (the threaded batch kernel ≈ 10 s); numba's cache serves
+them afterwards. ``Identifier.step`` of the observer laws goes through a small optional C
+extension that calls the kernel without numba's dispatcher (:mod:`~simgap.identifiers.fastcall`,
+built at install time when a C compiler is present; without it, the same results ≈ 0.5 µs
+slower per step).
 """
 
 from simgap.identifiers.batch import BatchIdentifier

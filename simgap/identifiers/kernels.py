@@ -25,8 +25,11 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
 2-core benchmark machine; ``benchmarks/bench_identifiers.py``):
 
 * numba's dispatcher costs ≈ 55 ns per array argument, ≈ 30 ns without numba's runtime:
-  the whole state is one array, and :func:`observer_step_single` (the single identifier's
-  hot path) is compiled without the runtime (:func:`_kernel`);
+  the whole state is one array, and :func:`observer_step_single` is compiled without the
+  runtime (:func:`_kernel`). The single identifier's hot path skips the dispatcher
+  altogether: the optional C extension ``_call`` calls :func:`c_observer_step`, the same
+  body compiled as a C function (:mod:`~simgap.identifiers.fastcall`; ≈ 0.65 µs per
+  ``Identifier.step`` against ≈ 1.15 µs through the dispatcher);
 * numba's atomic reference counting on every array binding took ≈ 25 % of a batched step:
   the runtime-enabled kernels work on owner-less views (:mod:`~simgap.identifiers._raw`);
 * loops over the hidden units vectorise only if their indices are unsigned (``_ix``: no

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import sysconfig
+
 import numpy as np
 import pytest
 
@@ -24,11 +28,19 @@ def _pair(kind: str, **kw):
     return fast, slow
 
 
+def _c_compiler() -> str | None:
+    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    return shutil.which(cc)
+
+
 def test_the_c_caller_is_built_and_used():
-    # make test installs with a C compiler present, so the optional extension must exist
-    assert fastcall.available(), (
-        f"the fast path of Identifier.step is off: {fastcall.UNAVAILABLE}. setup.py builds "
-        f"simgap/identifiers/_call.c when pip has a C compiler; reinstall with `make install`")
+    # the extension is optional, but where pip had a C compiler it must have been built
+    if not fastcall.available():
+        if _c_compiler() is None or os.environ.get("SIMGAP_NO_C_CALLER"):
+            pytest.skip(fastcall.UNAVAILABLE)
+        pytest.fail(f"the fast path of Identifier.step is off: {fastcall.UNAVAILABLE}. setup.py "
+                    f"builds simgap/identifiers/_call.c with {_c_compiler()}; reinstall with "
+                    f"`make install` and read pip's build warning")
     assert make_identifier("integral", 4, 2, 0.002)._hot is not None
     assert make_identifier("minibatch", 4, 2, 0.002)._hot is None  # no C path for baseline 2
 
