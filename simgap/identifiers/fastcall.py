@@ -32,8 +32,8 @@ except ImportError:  # pragma: no cover - exercised on machines without a compil
 #: Why the fast path is off (``None`` while it is available or not yet tried).
 UNAVAILABLE: str | None = None
 if _call is None:
-    UNAVAILABLE = ("the C extension simgap.identifiers._call is not built (no C compiler at "
-                   "install time)")
+    UNAVAILABLE = ("the C extension simgap.identifiers._call is not built (no working C "
+                   "compiler at install time; pip's build output says why)")
 elif os.environ.get("SIMGAP_NO_C_CALLER"):
     UNAVAILABLE = "switched off by the environment variable SIMGAP_NO_C_CALLER"
 
