@@ -112,6 +112,14 @@ def _f(v: Any, digits: int = 4) -> str:
     return f"{v:.{digits}f}" if abs(v) < 1e3 else f"{v:.1f}"
 
 
+def _sig(v: Any, digits: int = 3) -> str:
+    """``v`` with ``digits`` significant digits, never in exponent notation."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "—"
+    return np.format_float_positional(float(v), precision=digits, unique=True,
+                                      fractional=False, trim="-")
+
+
 def _star(vals: list[Any]) -> list[str]:
     nums = [v for v in vals if v is not None and math.isfinite(v)]
     best = min(nums) if nums else None
@@ -191,9 +199,10 @@ def _timing_section(t: Mapping[str, Any], key_summary: str = "summary") -> list[
     lines = ["| Metric | B1 ours | B2 ours | Proposed ours | B1 thesis | B2 thesis | "
              "Proposed thesis |", "|---|---|---|---|---|---|---|"]
     for label, key in rows:
-        ours = [_f(s[k][key]) if k in s else "—" for k in METHODS]
+        # three significant digits: sub-µs means would all read 0.0009 ms with fixed decimals
+        ours = [_sig(s[k][key]) if k in s else "—" for k in METHODS]
         th = THESIS_TABLE_4_6.get(key)
-        th_txt = [_f(v) for v in th] if th is not None else ["—"] * 3
+        th_txt = [_sig(v) for v in th] if th is not None else ["—"] * 3
         if key == "miss_runs_pct":
             th_txt = [f"{v:g} (runs or steps: unspecified)" for v in th]  # type: ignore[union-attr]
         lines.append(f"| {label} | " + " | ".join(ours + th_txt) + " |")
