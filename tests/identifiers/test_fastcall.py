@@ -8,6 +8,8 @@ import sysconfig
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from simgap.identifiers import (
     IdentifierDivergedError,
@@ -135,3 +137,28 @@ def test_the_stepper_checks_its_state():
             s[0, K.HP_N], s[0, K.HP_M], s[0, K.HP_H] = 4, 2, 20
         step = fastcall._call.Stepper(addr, s, 4)
         assert step(np.zeros(4), np.zeros(2), np.zeros(4), np.zeros(4)) is None
+
+
+_vals = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(kind=st.sampled_from(["instantaneous", "integral"]),
+       steps=st.lists(st.lists(_vals, min_size=14, max_size=14), min_size=1, max_size=25))
+def test_both_paths_agree_on_random_bounded_inputs(kind, steps):
+    fast, slow = _pair(kind)
+    for v in steps:
+        x, u, f, xn = (np.array(v[0:4]), np.array(v[4:6]), np.array(v[6:10]),
+                       np.array(v[10:14]))
+        outcomes = []
+        for ident in (fast, slow):
+            try:
+                outcomes.append(ident.step(x, u, f, xn))
+            except IdentifierError as exc:  # includes divergence
+                outcomes.append(type(exc))
+        if isinstance(outcomes[0], np.ndarray):
+            np.testing.assert_array_equal(outcomes[0], outcomes[1])
+            assert np.all(np.isfinite(outcomes[0]))
+        else:
+            assert outcomes[0] is outcomes[1]
+    np.testing.assert_array_equal(fast._persistent(), slow._persistent())
