@@ -25,13 +25,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from simgap.errors import RecordingError
+
 #: Fewest samples any diagnosis can say something about.
 MIN_SAMPLES = 50
 SUFFIXES = (".csv", ".parquet")
-
-
-class RecordingError(ValueError):
-    """A recording file cannot be used: the message names the file, column/row and problem."""
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from simgap.errors import ModelFileError
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative, plant_array
@@ -45,10 +46,6 @@ from simgap.models.tires import MagicFormulaTire, magic_formula
 JOINTS = ("joint1", "joint2")
 AXLES = ("front_axle", "rear_axle")
 DEFAULT_SIGMA = 6.67e-4
-
-
-class ModelFileError(ValueError):
-    """An augmented-model JSON file cannot be used."""
 
 
 def _p(effect: Mapping[str, Any]) -> dict[str, float]:

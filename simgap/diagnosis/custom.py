@@ -54,6 +54,7 @@ from scipy.ndimage import median_filter
 from simgap.diagnosis.effects import Effect
 from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
 from simgap.diagnosis.systems import ColumnMap as SystemColumns
+from simgap.errors import CustomModelError
 from simgap.models.base import MechanicalNominalModel, NominalModel
 from simgap.models.bicycle import BicycleNominal
 from simgap.recordings import (
@@ -66,10 +67,6 @@ from simgap.recordings import (
     read_recording,
     validate_columns,
 )
-
-
-class CustomModelError(ValueError):
-    """A user model file, its NAME, or its column map is unusable (one-line message)."""
 
 
 @dataclass(frozen=True, kw_only=True)

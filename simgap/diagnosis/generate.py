@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from simgap.diagnosis.augmented import bicycle_physics, manipulator_physics
+from simgap.errors import GeneratorError
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.integrators import rk4
@@ -70,10 +71,6 @@ BICYCLE_EFFECTS: dict[str, tuple[bool, tuple[str, ...]]] = {
 }
 JOINTS = ("joint1", "joint2")
 AXLES = ("front_axle", "rear_axle")
-
-
-class GeneratorError(ValueError):
-    """Bad generator arguments (unknown effect, parameter or channel)."""
 
 
 @dataclass(frozen=True, kw_only=True)

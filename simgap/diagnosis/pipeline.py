@@ -46,6 +46,7 @@ from simgap.diagnosis.compare import Comparison, compare
 from simgap.diagnosis.effects import report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
 from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
+from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, BicycleParams
 from simgap.models.manipulator import ManipulatorNominal, ManipulatorParams
@@ -58,10 +59,6 @@ MODELS = ("manipulator2dof", "bicycle")
 #: floors and its mean square this share of the channel's residual.
 REMAINDER_NOISE_FACTOR = 2.0
 REMAINDER_SHARE = 0.1
-
-
-class DiagnosisError(ValueError):
-    """Bad input to the diagnosis (unknown model or parameter, unusable recording)."""
 
 
 @dataclass

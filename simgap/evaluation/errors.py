@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
+from simgap.errors import EvaluationError
 
-class EvaluationError(ValueError):
-    """Bad input to the evaluation (freeze times, cases, options, recordings)."""
+__all__ = ["EvaluationError"]

@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
+from simgap.errors import IdentifierDivergedError, IdentifierError
 
-class IdentifierError(ValueError):
-    """Bad input to an identifier: wrong shape, non-finite value, bad config or file."""
-
-
-class IdentifierDivergedError(IdentifierError):
-    """The weights or the state estimate became non-finite or left the documented bound."""
+__all__ = ["IdentifierDivergedError", "IdentifierError"]
