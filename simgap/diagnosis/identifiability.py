@@ -1,0 +1,150 @@
+"""Identifiability of a set of named parameters as a whole, from their joint Jacobian.
+
+Pairwise correlation misses joint symmetries: on a car driven in steady circles, mass, yaw
+inertia and both axles' tire laws scaled together leave the motion unchanged, while no two
+of them alone are collinear. The joint test is the singular value decomposition of the
+Jacobian J (N samples × p parameters) of the residual model with respect to the
+parameters, after scaling each column to unit norm (so that units, and rounding of the
+inputs, cannot change the verdict):
+
+* a right-singular vector vᵢ whose singular value sᵢ is small is a *combination*
+  Σ vᵢⱼ·θⱼ/‖J_j‖ that the data do not determine; its standard error is σ/sᵢ in those
+  scaled coordinates (σ the residual noise std, channel units);
+* a combination is **not identifiable** when sᵢ/s_max < ``rel_tol`` (numerically
+  collinear), or, when the noise and the fitted values are given, when its standard error
+  exceeds the size of the fitted parameter vector along it (the data cannot even fix its
+  sign);
+* the parameter correlation matrix is the normalised pseudo-inverse of JᵀJ.
+
+The answer is either "all identifiable" or the list of combinations the data cannot tell
+apart, named by the parameters that carry them, so that a report can name the
+identifiable part and say which direction is left open.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from simgap.errors import DiagnosisError
+
+#: Relative singular value below which a direction is numerically collinear.
+REL_TOL = 1e-3
+#: Parameters whose weight in an unidentifiable direction is below this share are not named.
+NAME_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class Combination:
+    """A direction in parameter space the data do not determine.
+
+    Attributes:
+        weights: parameter name → weight in the unit-norm direction (scaled coordinates;
+            only names with |weight| ≥ NAME_SHARE).
+        relative_singular_value: sᵢ/s_max of the direction.
+        relative_error: standard error along the direction divided by the fitted vector's
+            component along it (inf when no values were given and it is collinear).
+    """
+
+    weights: dict[str, float]
+    relative_singular_value: float
+    relative_error: float
+
+    def describe(self) -> str:
+        """One line: which parameters move together without changing the fit."""
+        parts = [f"{'+' if w > 0 else '−'}{abs(w):.2f}·{n}" for n, w in
+                 sorted(self.weights.items(), key=lambda kv: -abs(kv[1]))]
+        return (" ".join(parts) + " (each scaled by its regressor's norm) cannot be "
+                "determined from this data")
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """Result of :func:`analyse`.
+
+    Attributes:
+        names: parameter names, in Jacobian column order.
+        singular_values: of the column-normalised Jacobian, descending.
+        condition: s_max / s_min (inf if singular).
+        correlation: parameter correlation matrix (p × p).
+        unidentifiable: the combinations the data do not determine (empty if none).
+    """
+
+    names: tuple[str, ...]
+    singular_values: np.ndarray
+    condition: float
+    correlation: np.ndarray
+    unidentifiable: tuple[Combination, ...]
+
+    @property
+    def identifiable(self) -> bool:
+        """Whether every direction is determined."""
+        return not self.unidentifiable
+
+    def max_abs_correlation(self) -> float:
+        """Largest |correlation| between two different parameters."""
+        c = np.abs(self.correlation - np.diag(np.diag(self.correlation)))
+        return float(np.max(c)) if c.size else 0.0
+
+
+def analyse(jacobian: np.ndarray, names: Sequence[str], *, noise_std: float | None = None,
+            values: Sequence[float] | None = None, rel_tol: float = REL_TOL
+            ) -> Identifiability:
+    """Joint identifiability of the parameters whose regressors are ``jacobian``'s columns.
+
+    Args:
+        jacobian: (N, p) derivative of the residual model w.r.t. each parameter (channel
+            units per parameter unit); rows may stack channels.
+        names: the p parameter names.
+        noise_std: residual noise std (channel units) for the statistical test; with
+            ``values``, a direction is unidentifiable when its standard error exceeds the
+            fitted vector's component along it. Use the effective noise (inflated by
+            √τ for correlated residuals) where known.
+        values: fitted parameter values (parameter units), in ``names`` order.
+        rel_tol: relative singular value below which a direction counts as collinear.
+
+    Returns:
+        The :class:`Identifiability` of the whole set.
+
+    Raises:
+        DiagnosisError: on a shape mismatch or non-finite Jacobian.
+    """
+    j = np.asarray(jacobian, dtype=np.float64)
+    if j.ndim != 2 or j.shape[1] != len(names):
+        raise DiagnosisError(f"identifiability: Jacobian of shape {j.shape} does not match "
+                             f"{len(names)} parameter names")
+    if not np.all(np.isfinite(j)):
+        raise DiagnosisError("identifiability: the Jacobian holds non-finite values")
+    norms = np.linalg.norm(j, axis=0)
+    dead = norms == 0.0
+    scaled = j / np.where(dead, 1.0, norms)
+    _, s, vt = np.linalg.svd(scaled, full_matrices=False)
+    smax = float(s[0]) if s.size else 0.0
+    cond = float(smax / s[-1]) if s.size and s[-1] > 0 else float("inf")
+    gram_inv = np.linalg.pinv(scaled.T @ scaled)
+    d = np.sqrt(np.clip(np.diag(gram_inv), 1e-300, None))
+    corr = gram_inv / np.outer(d, d)
+    theta = None
+    if values is not None:
+        theta = np.asarray(values, dtype=np.float64) * norms   # scaled coordinates
+    combos = []
+    for i, si in enumerate(s):
+        rel = si / smax if smax > 0 else 0.0
+        along = abs(float(vt[i] @ theta)) if theta is not None else 0.0
+        err = (noise_std / si) if (noise_std is not None and si > 0) else float("inf")
+        rel_err = err / along if along > 0 else float("inf")
+        collinear = rel < rel_tol
+        undetermined = noise_std is not None and theta is not None and rel_err > 1.0
+        if collinear or undetermined:
+            w = {n: float(x) for n, x in zip(names, vt[i], strict=True)
+                 if abs(x) >= NAME_SHARE}
+            combos.append(Combination(weights=w, relative_singular_value=float(rel),
+                                      relative_error=float(rel_err)))
+    for n, is_dead in zip(names, dead, strict=True):
+        if is_dead:
+            combos.append(Combination(weights={n: 1.0}, relative_singular_value=0.0,
+                                      relative_error=float("inf")))
+    return Identifiability(names=tuple(names), singular_values=s, condition=cond,
+                           correlation=corr, unidentifiable=tuple(combos))
