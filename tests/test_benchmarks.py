@@ -40,3 +40,17 @@ def test_bench_envs_quick():
     res = _run("bench_envs.py", "--steps", "300", "--repeats", "1")
     assert res["manipulator"]["bare_steps_per_s"] > 0
     assert res["bicycle"]["bare_steps_per_s"] > 0
+
+
+def test_diagnosis_artefacts_quick(tmp_path):
+    out = tmp_path / "art.json"
+    res = _run("diagnosis_artefacts.py", "--seeds", "1", "--clean", "1",
+               "--effects", "coulomb_friction", "--artefacts", "quantised_encoder,gap",
+               "--out", str(out))
+    assert json.loads(out.read_text()) == res
+    assert set(res["summary"]) == {"quantised_encoder", "gap"}
+    for row in res["rows"]:
+        assert row["effect"] == "coulomb_friction"
+        assert "error" in row or isinstance(row["named"], bool)
+    assert res["summary"]["gap"]["cases"] == 1
+    assert len(res["clean"]) == 3      # the arm for both, the bicycle has no encoder positions

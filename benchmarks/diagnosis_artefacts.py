@@ -1,0 +1,102 @@
+"""Diagnosis under realistic recording artefacts: effect × artefact × seed, and clean × artefact.
+
+Each vocabulary effect is injected alone (random parameters from
+``simgap.diagnosis.proof.RANGES``) into a generated recording; one artefact of
+``simgap.diagnosis.artefacts.ARTEFACTS`` is then applied (quantised encoder with
+finite-difference velocity, upstream-denoised velocity, coloured noise, 100 Hz, time-stamp
+jitter, a gap, a 15 s log) and the diagnosis runs blind. Clean recordings with each artefact
+count false claims. Writes JSON (``--out``) and prints a Markdown summary on stderr.
+
+This measures today's pipeline; it is the table issue 13 asks to fix, not a claim that it
+passes.
+
+    .venv/bin/python benchmarks/diagnosis_artefacts.py [--seeds 3] [--clean 3] \
+        [--effects coulomb_friction,spring] [--artefacts coarse_100hz] [--out F.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from simgap.diagnosis.artefacts import ARTEFACTS
+from simgap.diagnosis.generate import generate
+from simgap.diagnosis.proof import RANGES, TOLERANCE, draw, model_of, run_case
+from simgap.errors import SimgapError
+
+DURATION = {"manipulator2dof": 20.0, "bicycle": 40.0}
+PAIRS = {"manipulator2dof": {"dq1": "q1", "dq2": "q2"}, "bicycle": {}}
+
+
+def _case(effects, model, seed, artefact):
+    rec = generate(model, effects, seed=seed, duration=DURATION[model])
+    rec = ARTEFACTS[artefact].apply(rec, PAIRS[model], np.random.default_rng(9000 + seed))
+    try:
+        r = run_case(effects, model, seed, recording=rec)
+    except SimgapError as err:
+        return {"error": str(err)}
+    return {"named": r.named, "param_error": r.param_error, "extra": r.extra,
+            "found": [f"{e['effect']}@{e['channel']}" for e in r.found],
+            "significant": r.significant, "improvement": r.improvement}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--clean", type=int, default=3)
+    ap.add_argument("--effects", default=",".join(RANGES))
+    ap.add_argument("--artefacts", default=",".join(ARTEFACTS))
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args()
+    effects = [e for e in args.effects.split(",") if e]
+    arts = [a for a in args.artefacts.split(",") if a]
+    t0 = time.perf_counter()
+    rows, clean = [], []
+    for art in arts:
+        for name in effects:
+            model = model_of(name)
+            if ARTEFACTS[art].needs_positions and not PAIRS[model]:
+                continue
+            for seed in range(args.seeds):
+                inj = draw(name, np.random.default_rng(1000 + seed))
+                res = _case([inj], model, seed, art)
+                rows.append({"artefact": art, "effect": name, "seed": seed,
+                             "channel": inj.channel, "injected": inj.params, **res})
+                print(f"[{time.perf_counter() - t0:7.1f} s] {art} {name} seed {seed}: "
+                      f"{'error' if 'error' in res else res['named']}", file=sys.stderr)
+        for model in ("manipulator2dof", "bicycle"):
+            if ARTEFACTS[art].needs_positions and not PAIRS[model]:
+                continue
+            for seed in range(args.clean):
+                res = _case([], model, 500 + seed, art)
+                clean.append({"artefact": art, "model": model, "seed": seed, **res})
+    summary = {}
+    for art in arts:
+        mine = [r for r in rows if r["artefact"] == art]
+        ok = [r for r in mine if r.get("named") and r["param_error"] <= TOLERANCE]
+        cl = [r for r in clean if r["artefact"] == art]
+        claimed = [r for r in cl if r.get("found") or r.get("significant")]
+        summary[art] = {"cases": len(mine), "named_within_tolerance": len(ok),
+                        "errors": sum("error" in r for r in mine),
+                        "clean": len(cl), "clean_with_claims": len(claimed)}
+    out = {"seeds": args.seeds, "tolerance": TOLERANCE, "summary": summary, "rows": rows,
+           "clean": clean, "seconds": time.perf_counter() - t0}
+    print("| artefact | cases | named within tolerance | errors | clean | clean with claims |",
+          file=sys.stderr)
+    print("|---|---|---|---|---|---|", file=sys.stderr)
+    for art, s in summary.items():
+        print(f"| {art} | {s['cases']} | {s['named_within_tolerance']} | {s['errors']} | "
+              f"{s['clean']} | {s['clean_with_claims']} |", file=sys.stderr)
+    text = json.dumps(out, indent=1, default=float)
+    if args.out is not None:
+        args.out.write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
