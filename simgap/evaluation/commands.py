@@ -23,8 +23,22 @@ def register(app: typer.Typer) -> None:
             "--seed", help="Seed of envs and identifier weights.")] = 0,
         timing_runs: Annotated[int | None, typer.Option(
             "--timing-runs", help="Timing runs per method (default 100, quick 3).")] = None,
+        seeds: Annotated[str | None, typer.Option(
+            "--seeds", help="Sweep over seeds, e.g. 0-99 or 0,3,5-7: one run per seed and "
+            "case (--case 1,2-1 or all, no timing) and OUT/summary.md.")] = None,
+        jobs: Annotated[int, typer.Option(
+            "--jobs", help="Parallel jobs of a sweep (local processes or Ray CPUs).")] = 1,
+        ray: Annotated[bool, typer.Option(
+            "--ray", help="Run the sweep on Ray (extra 'ray'): a local instance, or the "
+            "cluster in RAY_ADDRESS / --ray-address.")] = False,
+        ray_address: Annotated[str | None, typer.Option(
+            "--ray-address", help="Join this Ray cluster (implies --ray; 'auto' finds a "
+            "running one).")] = None,
     ) -> None:
         """Reproduce the thesis' Chapter 4 (Tables 4.5, 4.6, figures) into OUT."""
+        if seeds is not None:
+            _sweep(out, seeds, case, quick, jobs, ray_address or ray)
+            return
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -51,3 +65,34 @@ def register(app: typer.Typer) -> None:
                 raise typer.Exit(2) from None
         for path in res["files"]:
             console.log(f"wrote {path}")
+
+
+def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
+           ray: bool | str) -> None:
+    """``reproduce --seeds``: every (seed, case) as one job, then OUT/summary.{json,md}."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from simgap.errors import SimgapError
+    from simgap.evaluation.sweep import parse_cases, reproduce_sweep
+    from simgap.sweeps import parse_seeds
+
+    console = Console(stderr=True)
+    try:
+        seed_list, cases = parse_seeds(seeds), parse_cases(case)
+        with Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.completed}/"
+                      "{task.total} jobs"), TimeElapsedColumn(), console=console) as bar:
+            task = bar.add_task("sweep", total=len(seed_list) * len(cases))
+            res = reproduce_sweep(out, seeds=seed_list, cases=cases, quick=quick, jobs=jobs,
+                                  ray=ray or None,
+                                  progress=lambda d, t: bar.update(task, completed=d))
+    except SimgapError as exc:
+        console.print(f"error: {exc}", style="red", markup=False)
+        raise typer.Exit(2) from None
+    for f in res["failed"]:
+        console.print(f"failed: case {f['args'][1]} seed {f['args'][3]}: {f['error']}",
+                      markup=False)
+    for path in res["files"]:
+        console.print(f"wrote {path}", markup=False)
+    if res["failed"]:
+        raise typer.Exit(1)
