@@ -54,3 +54,11 @@ def test_diagnosis_artefacts_quick(tmp_path):
         assert "error" in row or isinstance(row["named"], bool)
     assert res["summary"]["gap"]["cases"] == 1
     assert len(res["clean"]) == 3      # the arm for both, the bicycle has no encoder positions
+
+
+def test_bench_sweeps_quick():
+    res = _run("bench_sweeps.py", "--seeds", "2", "--jobs", "2")
+    assert set(res["runs"]) >= {"serial", "process_pool"}
+    assert all(res["identical_to_serial"].values())
+    for run in res["runs"].values():
+        assert run["wall_s"] > 0 and run["failed"] == 0
