@@ -53,6 +53,7 @@ def test_diagnosis_artefacts_quick(tmp_path):
         assert row["effect"] == "coulomb_friction"
         assert "error" in row or isinstance(row["named"], bool)
     assert res["summary"]["gap"]["cases"] == 1
+    assert {"clean_with_named_effects", "clean_flagged_mismatch"} <= set(res["summary"]["gap"])
     assert len(res["clean"]) == 3      # the arm for both, the bicycle has no encoder positions
 
 
