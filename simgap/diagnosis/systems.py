@@ -31,6 +31,7 @@ from numba import njit
 from scipy.signal import lfilter
 
 from simgap.diagnosis.effects import BICYCLE_EFFECTS, MECHANICAL_EFFECTS, PAYLOAD, Effect
+from simgap.diagnosis.forms import EffectContext
 from simgap.diagnosis.residual import (
     ResidualResult,
     Smoother,
@@ -256,8 +257,15 @@ class MechanicalSystem:
         out["idx"] = idx
         return out
 
-    def set_context(self, terms: Sequence[tuple]) -> None:
-        """Couple terms of one model (nothing to couple for mechanical effects)."""
+    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
+        """Effects' context: Coulomb smoothing, gravity torques, the arm's payload regressor.
+
+        Mechanical terms do not couple, so ``terms`` changes nothing.
+        """
+        return EffectContext(n_channels=self.n_channels, coulomb_sigma=self.coulomb_sigma,
+                             gravity=self.gravity,
+                             payload_regressor=self.payload_regressor if self.is_manipulator
+                             else None)
 
     def fit_mask(self) -> np.ndarray:
         """Rows (N, n) whose joint residual is determinate: |dq| above 3 Coulomb widths.
@@ -293,15 +301,16 @@ class MechanicalSystem:
         nc = self.n_channels
         zero = {"q": q, "dq": dq, "ddq": np.zeros((n, nc))}
         b = np.zeros((n, nc))
+        ctx = self.context(effects)
         a = np.zeros((n, nc, nc))
         for eff, idx, lin, nl in effects:
-            base = eff(lin, nl, zero, idx, self)
+            base = eff(lin, nl, zero, idx, ctx)
             b += base
             if eff.uses_derivatives:
                 for j in range(nc):
                     unit = np.zeros((n, nc))
                     unit[:, j] = 1.0
-                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, self) - base
+                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, ctx) - base
         return a, b
 
     def acceleration(self, q, dq, u, effects) -> np.ndarray:
@@ -369,7 +378,6 @@ class BicycleSystem:
         self.derivative_units = ("m/s²", "rad/s²")
         self.rollout_horizon = 1.0
         self._lag_cache: dict[tuple[int, float], np.ndarray] = {}
-        self.axle_mu: dict[int, float] = {}
 
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
         """Vocabulary effects to test (steering lag only on axles whose command varies)."""
@@ -453,14 +461,18 @@ class BicycleSystem:
         out["idx"] = idx
         return out
 
-    def set_context(self, terms: Sequence[tuple]) -> None:
-        """Record the mu of tire_saturation terms per axle (used by the steering lag).
+    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
+        """Effects' context for one model made of ``terms``.
 
         Args:
-            terms: (effect, axle index, lin, nl) of one model.
+            terms: (effect, axle index, lin, nl) of one model; the mu of its
+                tire_saturation terms per axle is what the steering lag composes with.
         """
-        self.axle_mu = {i: float(nl[0]) for eff, i, _lin, nl in terms
-                        if eff.name == "tire_saturation"}
+        return EffectContext(n_channels=2, stiffness=self.stiffness, loads=self.loads,
+                             tire=self.tire, K_inv=self.K_inv,
+                             lagged_steering=self.lagged_steering,
+                             axle_mu={i: float(nl[0]) for eff, i, _lin, nl in terms
+                                      if eff.name == "tire_saturation"})
 
     def fit_mask(self) -> np.ndarray:
         """All rows are used for fitting (N, 2)."""
@@ -493,18 +505,18 @@ class BicycleSystem:
                "alpha_f": u[:, 0] - (x[:, 0] + lf * x[:, 1]) / vx,
                "alpha_r": u[:, 1] - (x[:, 0] - lr * x[:, 1]) / vx, "idx": idx,
                "dvy": np.zeros(len(idx)), "dr": np.zeros(len(idx))}
-        self.set_context(effects)
+        ctx = self.context(effects)
         k = self.model.K
         b = np.zeros((len(idx), 2))
         d = np.zeros((len(idx), 2, 2))
         for eff, i, lin, nl in effects:
-            base = eff(lin, nl, sig, i, self)
+            base = eff(lin, nl, sig, i, ctx)
             b += base
             if eff.uses_derivatives:
                 for j, key in enumerate(("dvy", "dr")):
                     s2 = dict(sig)
                     s2[key] = np.ones(len(idx))
-                    d[:, :, j] += eff(lin, nl, s2, i, self) - base
+                    d[:, :, j] += eff(lin, nl, s2, i, ctx) - base
         # dx = f + K (b + D dx)  →  (I − K D) dx = f + K b
         lhs = np.eye(2)[None] - np.einsum("ij,njk->nik", k, d)
         return np.linalg.solve(lhs, (f + b @ k.T)[..., None])[..., 0]
