@@ -193,7 +193,11 @@ def _adapter(model: Any, recorded: set[str] | None) -> Any:
 
 def _read(recording: Recording | str | os.PathLike, model: Any,
           columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None) -> Recording:
-    """The recording in the model's canonical columns (validated like a file)."""
+    """The recording in the model's canonical columns (validated like a file).
+
+    An explicit ``columns`` map always applies. The model's own ``column_map`` applies to
+    files, and to in-memory recordings unless they already hold the canonical columns.
+    """
     if isinstance(columns, Mapping):
         columns = ColumnMap.from_dict(columns)
     elif isinstance(columns, str | os.PathLike):
@@ -210,6 +214,9 @@ def _read(recording: Recording | str | os.PathLike, model: Any,
     cmap = columns
     if cmap is None and getattr(model, "column_map", None) is not None:
         cmap = _column_map_of(model)  # the model's own map, checked against its schema
+        if isinstance(recording, Recording) and all(c in recording.columns
+                                                    for c in schema.required):
+            cmap = None  # an in-memory recording already in canonical columns
     if isinstance(recording, Recording):
         return conform(recording, schema, cmap)
     return read_columns(recording, schema, cmap)

@@ -220,6 +220,25 @@ def test_bad_column_map_exits_2(tmp_path: Path, mapping: dict, pattern: str) -> 
     assert not (tmp_path / "o").exists()
 
 
+def test_canonical_recording_with_a_mapped_model(tmp_path: Path) -> None:
+    """A model's own map translates a file; a Recording already in canonical columns is
+    used as is (reading a file with the map, then diagnosing the result, is the same)."""
+    from simgap.diagnosis import with_columns
+    from simgap.recordings import RecordingSchema, read
+
+    frame = _axis_frame(n=3000).drop(columns="dq")
+    log = tmp_path / "log.csv"
+    frame.rename(columns={"t": "time", "q": "pos", "u": "force"}).to_csv(log, index=False)
+    model = with_columns(RigidAxisNominal(RigidAxisParams(mass=MASS)), t="time", q="pos",
+                         u="force")
+    from_file = diagnose(log, model).data
+    rec = read(log, RecordingSchema.of(model), model.column_map)
+    in_memory = diagnose(rec, model).data
+    assert from_file["processing"].pop("column_map") == in_memory["processing"].pop(
+        "column_map") == {"t": "time", "q": "pos", "u": "force"}
+    assert json.dumps(from_file) == json.dumps(in_memory)
+
+
 # --------------------------------------------------------------------------- aliases
 @pytest.mark.parametrize(("module", "name", "new"), [
     ("simgap.diagnosis.custom", "ColumnMap", "simgap.recordings.ColumnMap"),
