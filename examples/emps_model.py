@@ -16,7 +16,7 @@ Column map: ``t_s`` → t (s), ``qm_m`` → q (m, motor position on the load sid
 ``qg_m`` (the reference) and ``pulses_N`` (validation set) are not used.
 """
 
-from simgap.diagnosis.custom import Column, with_columns
+from simgap.diagnosis import Column, with_columns
 from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
 
 #: Drive gain (N/V) stored in DATA_EMPS.mat: force on the load = GTAU · vir.

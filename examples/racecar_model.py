@@ -27,7 +27,7 @@ list the replaced rows. (Clipping to ±0.2 rad, as the dataset README did, would
 two smaller glitches and half of the big ones in.)
 """
 
-from simgap.diagnosis.custom import Column, with_columns
+from simgap.diagnosis import Column, with_columns
 from simgap.models.bicycle import BicycleNominal, BicycleParams
 
 #: Vehicle parameters published with the dataset's estimators.

@@ -29,6 +29,13 @@ class CustomModelError(SimgapError):
     """A user model file, its NAME, or its column map is unusable (one-line message)."""
 
 
+class ColumnMapError(RecordingError, CustomModelError):
+    """A column map (file column -> canonical column) is malformed or does not fit a schema.
+
+    It is both a recording and a model-configuration problem, so it derives from both.
+    """
+
+
 class ModelFileError(SimgapError):
     """An augmented-model JSON file cannot be used."""
 
@@ -54,7 +61,8 @@ class EvaluationError(SimgapError):
 
 
 __all__ = [
-    "CustomModelError", "DiagnosisError", "EnvError", "EvaluationError", "GeneratorError",
+    "ColumnMapError", "CustomModelError", "DiagnosisError", "EnvError", "EvaluationError",
+    "GeneratorError",
     "IdentifierDivergedError", "IdentifierError", "ModelError", "ModelFileError",
     "RecordingError", "SimgapError",
 ]

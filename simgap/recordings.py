@@ -11,21 +11,37 @@ for the first data row (in a CSV file that is line 2, after the header).
 
 Writing is atomic: the table goes to a temporary file in the target folder that is renamed
 into place, so a failed write leaves nothing half-written.
+
+Canonical columns and column maps
+---------------------------------
+Every system (built-in or a user's ``path.py:NAME`` model) declares its canonical recording
+columns as a :class:`RecordingSchema` (``canonical``, the ``derivable`` ones the diagnosis may
+compute when absent, and how inputs were held). A user's file with other names or units is
+translated by one :class:`ColumnMap`: canonical name -> :class:`Column` (source column,
+scale, offset, constant, despike). :func:`read` applies it::
+
+    read("log.csv", schema, ColumnMap.of(t="time_s", delta_f=Column(source="wheel_deg",
+                                                                    scale=0.00109)))
+
+Canonical columns a map does not name are read from the file column of the same name.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import os
 import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from simgap.errors import RecordingError
+from simgap.errors import ColumnMapError, RecordingError
 
 #: Fewest samples any diagnosis can say something about.
 MIN_SAMPLES = 50
@@ -242,3 +258,391 @@ def write_recording(path: str | os.PathLike, data: Mapping[str, np.ndarray] | pd
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+# --------------------------------------------------------------------------- schemas
+@dataclass(frozen=True, kw_only=True)
+class RecordingSchema:
+    """The canonical recording columns of one system.
+
+    Attributes:
+        canonical: column names the system reads, ``t`` (s) first, in SI units (e.g.
+            ``t, q1, q2, dq1, dq2, tau1, tau2`` for the arm; ``t, q, dq, u`` for a 1-DOF axis).
+        derivable: canonical columns the diagnosis may compute when the file lacks them
+            (velocities, by differentiating positions).
+        input_hold: ``"zoh"`` if each logged input is held until the next sample, else
+            ``"sample"``.
+    """
+
+    canonical: tuple[str, ...]
+    derivable: tuple[str, ...] = ()
+    input_hold: str = "zoh"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "canonical", tuple(self.canonical))
+        object.__setattr__(self, "derivable", tuple(self.derivable))
+        if "t" not in self.canonical:
+            raise ColumnMapError(f"recording schema {list(self.canonical)} has no time column 't'")
+        stray = [c for c in self.derivable if c not in self.canonical]
+        if stray:
+            raise ColumnMapError(f"derivable column {stray[0]!r} is not one of the canonical "
+                                 f"columns {list(self.canonical)}")
+        if self.input_hold not in ("zoh", "sample"):
+            raise ColumnMapError(f"input_hold must be 'zoh' or 'sample', got "
+                                 f"{self.input_hold!r}")
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """Canonical columns that must come from the file (or a constant)."""
+        return tuple(c for c in self.canonical if c not in self.derivable)
+
+    @classmethod
+    def of(cls, model: Any) -> RecordingSchema:
+        """Schema declared by a model.
+
+        ``model.recording_schema`` if set, else ``recording_columns`` and
+        ``derivable_columns``.
+
+        Raises:
+            ColumnMapError: the model declares no recording columns.
+        """
+        schema = getattr(model, "recording_schema", None)
+        if isinstance(schema, RecordingSchema):
+            return schema
+        canonical = tuple(getattr(model, "recording_columns", ()) or ())
+        if not canonical:
+            name = getattr(model, "name", None) or type(model).__name__
+            raise ColumnMapError(f"{name} has no recording_columns: a model must list its "
+                                 "canonical recording columns")
+        return cls(canonical=canonical,
+                   derivable=tuple(getattr(model, "derivable_columns", ()) or ()))
+
+
+# --------------------------------------------------------------------------- column maps
+@dataclass(frozen=True, kw_only=True)
+class Column:
+    """Where one canonical recording column comes from.
+
+    The canonical value is ``scale * file[source] + offset``, or ``constant`` on every row.
+
+    Attributes:
+        source: column name in the user's recording (``None`` when ``constant`` is set).
+        scale: factor applied to the source values, e.g. a drive gain (N/V) or deg -> rad.
+        offset: added after scaling, in the canonical column's unit.
+        constant: fixed value for every row (e.g. ``delta_r = 0`` for a car without rear
+            steering); exclusive with ``source``.
+        despike: if set, a sample that differs from the median of itself and its two
+            neighbours by more than this (canonical units) is an isolated glitch and is
+            replaced by linear interpolation in time between the remaining samples.
+    """
+
+    source: str | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+    constant: float | None = None
+    despike: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.source is None) == (self.constant is None):
+            raise ColumnMapError("Column needs exactly one of source= and constant=, got "
+                                 f"source={self.source!r}, constant={self.constant!r}")
+        if self.source is not None and (not isinstance(self.source, str) or not self.source):
+            raise ColumnMapError(f"Column source must be a non-empty string, got "
+                                 f"{self.source!r}")
+        for name in ("scale", "offset", "constant", "despike"):
+            v = getattr(self, name)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)
+                                  or not np.isfinite(v)):
+                raise ColumnMapError(f"Column {name} must be a finite number, got {v!r}")
+        if self.scale == 0:
+            raise ColumnMapError("Column scale must be non-zero")
+        if self.despike is not None and self.despike <= 0:
+            raise ColumnMapError(f"Column despike must be positive, got {self.despike!r}")
+
+    def describe(self) -> str:
+        """Short human-readable origin, e.g. ``35.15 × vir_V``."""
+        if self.constant is not None:
+            return f"constant {self.constant:g}"
+        text = self.source if self.scale == 1 else f"{self.scale:g} × {self.source}"
+        if self.offset:
+            text += f" {'+' if self.offset > 0 else '−'} {abs(self.offset):g}"
+        if self.despike is not None:
+            text += f" (despiked at {self.despike:g})"
+        return text
+
+
+_COLUMN_KEYS = ("source", "scale", "offset", "constant", "despike")
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """Canonical recording column -> :class:`Column` (the one column map of simgap).
+
+    Build it with :meth:`of`: ``ColumnMap.of(t="t_s", q="qm_m", u=Column(source="vir_V",
+    scale=35.15))``; a string means ``Column(source=...)``, a number ``Column(constant=...)``.
+    From JSON (``simgap diagnose --columns map.json``) with :meth:`from_dict` /
+    :meth:`from_json`: ``{"t": "time", "delta_f": {"source": "wheel_deg", "scale": 0.00109}}``.
+    """
+
+    columns: Mapping[str, Column] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for key, col in self.columns.items():
+            if not isinstance(col, Column):
+                raise ColumnMapError(f"column map entry {key!r} must be a Column, got "
+                                     f"{type(col).__name__}")
+        object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
+
+    @classmethod
+    def of(cls, **columns: str | float | Column) -> ColumnMap:
+        """Column map from keyword arguments (canonical name = source, number or Column)."""
+        out: dict[str, Column] = {}
+        for key, spec in columns.items():
+            if isinstance(spec, Column):
+                out[key] = spec
+            elif isinstance(spec, str):
+                out[key] = Column(source=spec)
+            elif isinstance(spec, int | float) and not isinstance(spec, bool):
+                out[key] = Column(constant=float(spec))
+            else:
+                raise ColumnMapError(f"column map entry {key!r} must be a column name, a "
+                                     f"number or a Column, got {spec!r}")
+        return cls(out)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, label: str = "column map") -> ColumnMap:
+        """Column map from a JSON-style dict.
+
+        Each canonical name maps to a source column name, a number (a constant), or an
+        object with the :class:`Column` fields.
+        """
+        if not isinstance(data, Mapping):
+            raise ColumnMapError(f"{label}: expected an object of canonical column -> source, "
+                                 f"got {type(data).__name__}")
+        out: dict[str, str | float | Column] = {}
+        for key, spec in data.items():
+            if isinstance(spec, Mapping):
+                unknown = [k for k in spec if k not in _COLUMN_KEYS]
+                if unknown:
+                    raise ColumnMapError(f"{label}: column {key!r} has unknown field "
+                                         f"{unknown[0]!r} (use {', '.join(_COLUMN_KEYS)})")
+                try:
+                    out[key] = Column(**dict(spec))
+                except ColumnMapError as err:
+                    raise ColumnMapError(f"{label}: column {key!r}: {err}") from None
+            else:
+                out[key] = spec
+        try:
+            return cls.of(**out)
+        except ColumnMapError as err:
+            raise ColumnMapError(f"{label}: {err}") from None
+
+    @classmethod
+    def from_json(cls, path: str | os.PathLike) -> ColumnMap:
+        """Read a column map from a JSON file (see :meth:`from_dict`)."""
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ColumnMapError(f"{path}: file does not exist") from None
+        except (OSError, UnicodeDecodeError) as err:
+            raise ColumnMapError(f"{path}: cannot read the column map ({err})") from None
+        except json.JSONDecodeError as err:
+            raise ColumnMapError(f"{path}: not valid JSON (line {err.lineno}: "
+                                 f"{err.msg})") from None
+        return cls.from_dict(data, label=str(path))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (inverse of :meth:`from_dict`)."""
+        out: dict[str, Any] = {}
+        for key, col in self.columns.items():
+            fields = {k: getattr(col, k) for k in _COLUMN_KEYS}
+            default = Column(source="x") if col.source is not None else Column(constant=0.0)
+            out[key] = {k: v for k, v in fields.items()
+                        if v is not None and (k in ("source", "constant")
+                                              or v != getattr(default, k))}
+        return out
+
+    @property
+    def sources(self) -> tuple[str, ...]:
+        """Columns read from the user's file."""
+        return tuple(c.source for c in self.columns.values() if c.source is not None)
+
+    def check_schema(self, schema: RecordingSchema, label: str) -> None:
+        """Check this map against a schema; raise :class:`ColumnMapError` if it fails.
+
+        Every entry must name a canonical column, every required column must be covered
+        and time must not be a constant.
+        """
+        canonical = schema.canonical
+        unknown = [k for k in self.columns if k not in canonical]
+        if unknown:
+            raise ColumnMapError(f"column map of {label} names {unknown[0]!r}, which "
+                                 f"is not one of its recording columns {list(canonical)}")
+        missing = [c for c in schema.required if c not in self.columns]
+        if missing:
+            raise ColumnMapError(f"column map of {label} does not say where "
+                                 f"{missing[0]!r} comes from (needs all of "
+                                 f"{list(schema.required)})")
+        if "t" in self.columns and self.columns["t"].constant is not None:
+            raise ColumnMapError(f"column map of {label}: time 't' cannot be a constant")
+
+    def check(self, model: Any) -> None:
+        """Raise :class:`ColumnMapError` unless this map fits ``model``'s schema."""
+        label = getattr(model, "name", None) or type(model).__name__
+        try:
+            schema = RecordingSchema.of(model)
+        except ColumnMapError:
+            raise ColumnMapError(f"{label} has no recording_columns: a model with a column "
+                                 "map must list its canonical recording columns") from None
+        self.check_schema(schema, label)
+
+    def completed(self, schema: RecordingSchema, available: Sequence[str]) -> ColumnMap:
+        """Return this map plus identity entries for the canonical columns it does not name.
+
+        A required column is read from the file column of its own name; a derivable one
+        only if the file has it (otherwise the diagnosis derives it).
+        """
+        out = dict(self.columns)
+        have = set(available)
+        for c in schema.canonical:
+            if c not in out and (c not in schema.derivable or c in have):
+                out[c] = Column(source=c)
+        return ColumnMap(out)
+
+    def apply(self, frame: pd.DataFrame, *, label: str = "recording",
+              min_samples: int = MIN_SAMPLES) -> Recording:
+        """Translate a user's table to a validated recording with canonical columns.
+
+        Args:
+            frame: the user's recording as read from disk (any column types).
+            label: file name used in error messages.
+            min_samples: fewest rows accepted.
+
+        Returns:
+            A :class:`Recording` holding only the canonical columns (in the system's
+            units); ``meta["column_map"]`` says where each came from and ``meta["notes"]``
+            what the translation changed (constants, despiked rows).
+
+        Raises:
+            RecordingError: a source column is missing, non-numeric, NaN or infinite, time
+                does not strictly increase, or there are too few rows.
+        """
+        names = [str(c).strip() for c in frame.columns]
+        frame = frame.set_axis(names, axis=1)
+        missing = [c for c in self.sources if c not in names]
+        if missing:
+            raise RecordingError(f"{label}: missing column {missing[0]!r} (the model's column "
+                                 f"map reads {', '.join(dict.fromkeys(self.sources))}; found "
+                                 f"{', '.join(names) if names else 'no columns'})")
+        if len(frame) < min_samples:
+            raise RecordingError(f"{label}: too few samples: {len(frame)} rows, need at least "
+                                 f"{min_samples}")
+        n = len(frame)
+        data: dict[str, np.ndarray] = {}
+        notes: list[str] = []
+        for key, col in self.columns.items():
+            if col.constant is not None:
+                data[key] = np.full(n, col.constant, dtype=np.float64)
+                notes.append(f"{key} = {col.constant:g} on every row (not in the file)")
+            else:
+                data[key] = col.scale * _numeric_column(label, col.source, frame[col.source]) \
+                    + col.offset
+        t = data.get("t")
+        if t is not None:
+            step = np.diff(t)
+            if np.any(step <= 0):
+                i = int(np.argmax(step <= 0)) + 1
+                raise RecordingError(f"{label}: column {self.columns['t'].source!r} (time) "
+                                     f"{_row_label(label, i)}: {float(t[i])!r} s is not after "
+                                     f"the previous {float(t[i - 1])!r} s (must strictly increase)")
+        for key, col in self.columns.items():
+            if col.despike is None:
+                continue
+            data[key], idx = despike(data[key], col.despike, t)
+            if idx.size:
+                where = ", ".join(f"row {i + 1}" + (f" (t = {t[i]:.2f} s)" if t is not None
+                                                    else "") for i in idx[:5])
+                more = f" and {idx.size - 5} more" if idx.size > 5 else ""
+                notes.append(f"{key}: {idx.size} isolated spike(s) in {col.source} (more than "
+                             f"{col.despike:g} from the 3-sample median) replaced by linear "
+                             f"interpolation: {where}{more}")
+        columns = validate_columns(label, pd.DataFrame(data), list(data), min_samples)
+        meta = {"column_map": {k: c.describe() for k, c in self.columns.items()},
+                "notes": notes}
+        return Recording(name=Path(label).name, columns=columns, meta=meta)
+
+
+def despike(x: np.ndarray, threshold: float,
+            t: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Replace isolated single-sample glitches by linear interpolation.
+
+    A sample is a glitch when it differs from the median of itself and its two neighbours
+    by more than ``threshold``; a genuine step (two or more samples at the new level) is
+    left alone because the 3-sample median follows it.
+
+    Args:
+        x: signal, shape (N,).
+        threshold: glitch size, in the signal's unit.
+        t: sample times (s) for the interpolation; sample index if ``None``.
+
+    Returns:
+        The cleaned copy of ``x`` and the indices that were replaced.
+    """
+    from scipy.ndimage import median_filter
+
+    x = np.asarray(x, dtype=np.float64)
+    med = median_filter(x, size=3, mode="nearest")
+    bad = np.abs(x - med) > threshold
+    idx = np.flatnonzero(bad)
+    if idx.size == 0 or idx.size == x.size:
+        return x.copy(), idx[:0] if idx.size == x.size else idx
+    axis = np.arange(x.size, dtype=np.float64) if t is None else np.asarray(t, dtype=np.float64)
+    out = x.copy()
+    out[bad] = np.interp(axis[bad], axis[~bad], x[~bad])
+    return out, idx
+
+
+def _conform(frame: pd.DataFrame, label: str, schema: RecordingSchema,
+             columns: ColumnMap | None, min_samples: int, meta: dict | None) -> Recording:
+    names = [str(c).strip() for c in frame.columns]
+    if columns is None:
+        need = [c for c in schema.canonical if c not in schema.derivable or c in names]
+        data = validate_columns(label, frame, need, min_samples)
+        return Recording(name=Path(label).name, columns=data, meta=dict(meta or {}))
+    cmap = columns.completed(schema, names)
+    cmap.check_schema(schema, label)
+    rec = cmap.apply(frame, label=label, min_samples=min_samples)
+    return Recording(rec.name, rec.columns, {**dict(meta or {}), **rec.meta})
+
+
+def read(path: str | os.PathLike, schema: RecordingSchema, columns: ColumnMap | None = None,
+         *, min_samples: int = MIN_SAMPLES) -> Recording:
+    """Read a CSV/Parquet recording into a system's canonical columns.
+
+    Args:
+        path: ``.csv`` or ``.parquet`` file with a header row.
+        schema: the system's canonical columns.
+        columns: where the canonical columns come from; ``None``: the file uses the
+            canonical names. Canonical columns the map does not name are read from the file
+            column of that name (derivable ones only when present).
+        min_samples: fewest rows accepted.
+
+    Returns:
+        The validated :class:`Recording` holding canonical columns only (derivable ones only
+        when the file has them); with a map, ``meta`` records it and what it changed.
+
+    Raises:
+        RecordingError: on any problem with the file, one line.
+        ColumnMapError: the map does not fit the schema.
+    """
+    path = Path(path)
+    return _conform(_read_table(path), str(path), schema, columns, min_samples, None)
+
+
+def conform(recording: Recording, schema: RecordingSchema, columns: ColumnMap | None = None,
+            *, min_samples: int = MIN_SAMPLES) -> Recording:
+    """Validate an in-memory :class:`Recording` exactly as :func:`read` does a file."""
+    frame = pd.DataFrame({k: np.asarray(v, dtype=np.float64)
+                          for k, v in recording.columns.items()})
+    return _conform(frame, recording.name, schema, columns, min_samples, recording.meta)

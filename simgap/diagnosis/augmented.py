@@ -260,16 +260,40 @@ class AugmentedMechanical(MechanicalNominalModel):
         system: the prepared :class:`~simgap.diagnosis.systems.MechanicalSystem` (effect
             context).
         fitted: (effect, index, lin, nl) tuples from the fit.
+        effects: the reported effects (dicts as in the report's ``effects``), for the JSON.
+        source: ``path/to/model.py:NAME`` of a user model, so the JSON can be read back.
 
     The state is taken to be (q, dq) (2n entries); ``f`` returns (dq, ddq).
     """
 
     def __init__(self, base: MechanicalNominalModel, system: Any,
-                 fitted: Sequence[tuple]) -> None:
+                 fitted: Sequence[tuple], *, effects: Sequence[Mapping[str, Any]] = (),
+                 source: str | None = None) -> None:
         self.base, self.system, self.fitted = base, system, list(fitted)
+        self.effects = [dict(e) for e in effects]
+        self.source = source
         self.name = f"{getattr(base, 'name', 'mechanical')}+effects"
         for attr in ("state_names", "state_units", "input_names", "input_units", "dt"):
             setattr(self, attr, getattr(base, attr))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (read back by :func:`simgap.diagnosis.report.load_augmented`).
+
+        Besides the reported effects it holds each fitted term in the fit's internal
+        coordinates (``fitted``) and the Coulomb smoothing, which rebuild the model exactly.
+        """
+        params = getattr(self.base, "params", None)
+        base = ({f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
+                if dataclasses.is_dataclass(params) else {})
+        return {"schema": 1, "model": getattr(self.base, "name", "mechanical"),
+                "kind": "mechanical", "model_file": self.source, "base_params": base,
+                "effects": self.effects,
+                "fitted": [{"effect": e.name, "index": i,
+                            "lin": [float(v) for v in np.atleast_1d(lin)],
+                            "nl": [float(v) for v in np.atleast_1d(nl)]}
+                           for e, i, lin, nl in self.fitted],
+                "options": {"coulomb_sigma": [float(v) for v in self.system.coulomb_sigma],
+                            "dt": float(self.dt)}}
 
     def _split(self, q, dq):
         a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq))

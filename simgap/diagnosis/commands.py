@@ -72,28 +72,27 @@ def register(app: typer.Typer) -> None:
                                   "path/to/model.py:NAME (see examples/README.md)."),
         params: Path = typer.Option(None, "--params", help="JSON overrides of nominal "
                                     "parameters, e.g. {\"m\": 2.5}."),
+        columns: Path = typer.Option(None, "--columns", help="JSON column map: canonical "
+                                     "column -> file column, number or {\"source\", "
+                                     "\"scale\", \"offset\", \"constant\", \"despike\"}; "
+                                     "unnamed columns keep their names."),
         out: Path = typer.Option(None, "--out", help="Report folder (default "
                                  "./simgap-report/<recording stem>/)."),
         figures: bool = typer.Option(True, help="Write the PNG figures."),
     ) -> None:
         """Locate and name the physics a recording has and the nominal model lacks."""
-        from simgap.diagnosis.custom import CustomModelError, diagnose_custom
-        from simgap.diagnosis.generate import GeneratorError
-        from simgap.diagnosis.pipeline import DiagnosisError, default_out_dir
+        from simgap.diagnosis.pipeline import default_out_dir
         from simgap.diagnosis.pipeline import diagnose as run
         from simgap.diagnosis.report import summary_lines, write_report
-        from simgap.recordings import RecordingError
+        from simgap.errors import SimgapError
 
         overrides = _load_params(params)
+        if overrides and ":" in model:
+            _fail(f"{params}: --params applies to built-in models only; set the "
+                  f"parameters in {model.rsplit(':', 1)[0]}")
         try:
-            if ":" in model:  # a user-defined model file (simgap.diagnosis.custom)
-                if overrides:
-                    _fail(f"{params}: --params applies to built-in models only; set the "
-                          f"parameters in {model.rsplit(':', 1)[0]}")
-                report = diagnose_custom(model, recording)
-            else:
-                report = run(recording, model, overrides)
-        except (RecordingError, DiagnosisError, GeneratorError, CustomModelError) as err:
+            report = run(recording, model, overrides, columns=columns)
+        except SimgapError as err:
             _fail(str(err))
         target = out or default_out_dir(recording)
         try:

@@ -146,6 +146,8 @@ class Fitter:
         all_rows = np.arange(self.n)
         self.sig = system.rows(all_rows)
         self.sig0 = system.zero_derivatives(self.sig)
+        # what the effects may read (forms.EffectContext); a bare adapter is its own context
+        self.ctx = system.context() if hasattr(system, "context") else system
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.y_tr = (self.r[self.train] * self.w).ravel()
         self.y_te = (self.r[self.test] * self.w).ravel()
@@ -159,10 +161,10 @@ class Fitter:
         """
         e, sm = term.effect, self.sys.smoother
         if e.uses_derivatives:
-            base = e(lin, nl, self.sig0, term.index, self.sys)
-            out = sm(base) + (e(lin, nl, self.sig, term.index, self.sys) - base)
+            base = e(lin, nl, self.sig0, term.index, self.ctx)
+            out = sm(base) + (e(lin, nl, self.sig, term.index, self.ctx) - base)
         else:
-            out = sm(e(lin, nl, self.sig, term.index, self.sys))
+            out = sm(e(lin, nl, self.sig, term.index, self.ctx))
         return out * self.mask
 
     def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -183,9 +185,9 @@ class Fitter:
         return cols, off
 
     def _context(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> None:
-        if hasattr(self.sys, "set_context"):
-            self.sys.set_context([(t.effect, t.index, None, nl)
-                                  for t, nl in zip(terms, nls, strict=True)])
+        if hasattr(self.sys, "context"):
+            self.ctx = self.sys.context([(t.effect, t.index, None, nl)
+                                         for t, nl in zip(terms, nls, strict=True)])
 
     def _design(self, terms: Sequence[Term], nls: Sequence[np.ndarray], rows: np.ndarray):
         self._context(terms, nls)

@@ -6,34 +6,30 @@
 
 How to plug in a model
 ----------------------
-``diagnose`` accepts a model name (``"manipulator2dof"``, ``"bicycle"``), a nominal-model
-object, or a ready *system adapter* (:mod:`simgap.diagnosis.systems`):
+``diagnose`` is the one entry point (the CLI calls it too). ``model`` is a built-in name
+(``"manipulator2dof"``, ``"bicycle"``), ``"path/to/model.py:NAME"``
+(:mod:`simgap.diagnosis.user_models`), a nominal-model object, or a ready *system adapter*
+(:mod:`simgap.diagnosis.systems`). Whichever way a model comes in, it gets the same adapter
+(:func:`make_system`):
 
-* **Mechanical systems** (anything with M(q) ddq + bias(q, dq) = tau, e.g. a 1-DOF prismatic
-  axis): subclass :class:`simgap.models.base.MechanicalNominalModel`, implement ``M`` and
-  ``bias`` (SI units; set ``residual_units`` to ``("N",)`` for a prismatic joint), and pass
-  ``MechanicalSystem(model, ColumnMap(q=("pos",), dq=None, u=("voltage",),
-  u_scale=(gain,)), channels=("axis",))``. ``dq=None`` differentiates positions twice;
-  ``u_scale`` turns a logged voltage into force. The residual is then tau − M ddq − bias
-  per joint and the joint-level vocabulary (friction, bias, spring, inertia, gravity) is
-  tested; ``payload_mass`` only exists for the two-link arm.
-* **State-space models with a force residual** like the bicycle: :class:`BicycleSystem`
-  takes any :class:`~simgap.models.bicycle.BicycleNominal` (its parameters) and a
-  :class:`ColumnMap` naming the vy, r, steering and vx columns (``u_scale`` converts e.g.
-  steering-wheel angle to road-wheel angle).
-* Something else: write an adapter with the same small interface (``prepare``,
-  ``candidates``, ``rows``, ``zero_derivatives``, ``fit_mask``, ``locate_variables``,
-  ``state_at``, ``derivative_at``, ``predicted_derivative``, ``step`` and the name/unit
-  attributes) — see the two adapters, each ~200 lines.
+* the two-link arm (``ManipulatorNominal``): inverse dynamics with the arm's fast kernels and
+  the payload effect;
+* any other :class:`simgap.models.base.MechanicalNominalModel` (e.g. a 1-DOF prismatic axis,
+  :class:`~simgap.models.prismatic.RigidAxisNominal`): inverse dynamics over the model's own
+  canonical columns (``obs_names``, ``input_names``) with its own units (N and m for a slider);
+  velocities are read when the recording has them and derived from positions otherwise;
+* a :class:`~simgap.models.bicycle.BicycleNominal`: the axle-force residual K⁻¹ g.
 
-The ``--model path.py:NAME`` loader (user files, column maps with scales/offsets) lives in
-:mod:`simgap.diagnosis.custom` and builds one of these adapters.
+The recording is read into the model's canonical columns
+(:class:`~simgap.recordings.RecordingSchema`); a file with other names or units is
+translated by a :class:`~simgap.recordings.ColumnMap` (``columns=``, or the model's
+``column_map``), e.g. a steering-wheel angle in degrees scaled to the road-wheel angle.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,12 +41,23 @@ from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, A
 from simgap.diagnosis.compare import Comparison, compare
 from simgap.diagnosis.effects import report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
-from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
+from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem, ModelMechanicalSystem
+from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
+from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, BicycleParams
 from simgap.models.manipulator import ManipulatorNominal, ManipulatorParams
-from simgap.recordings import Recording, RecordingError, read_recording, recording_from_arrays
+from simgap.recordings import (
+    ColumnMap,
+    Recording,
+    RecordingError,
+    RecordingSchema,
+    conform,
+    read_recording,
+    recording_from_arrays,
+)
+from simgap.recordings import read as read_columns
 
 MODELS = ("manipulator2dof", "bicycle")
 
@@ -113,25 +120,115 @@ def _apply_overrides(cls: type, overrides: Mapping[str, Any] | None, model: str)
         raise DiagnosisError(f"bad parameter value for model {model}: {err}") from None
 
 
-def make_system(model: str | Any, params: Mapping[str, Any] | None = None) -> Any:
-    """Adapter for a model name, a nominal-model object or an adapter (returned as is)."""
+def resolve_model(model: str | Any, params: Mapping[str, Any] | None = None
+                  ) -> tuple[Any, str | None]:
+    """The nominal model (or ready adapter) a ``diagnose`` argument names.
+
+    Args:
+        model: a built-in name (:data:`MODELS`), ``path/to/model.py:NAME``, a nominal-model
+            object or a ready adapter.
+        params: overrides of the nominal parameters by name (built-in names only).
+
+    Returns:
+        (model or adapter, the ``path.py:NAME`` spec or ``None``).
+
+    Raises:
+        DiagnosisError: unknown name or parameter, overrides for a non-built-in model.
+        CustomModelError: an unusable model file or model object.
+    """
     if isinstance(model, str):
         if model == "manipulator2dof":
-            return MechanicalSystem(ManipulatorNominal(
-                _apply_overrides(ManipulatorParams, params, model)), name=model)
+            return ManipulatorNominal(_apply_overrides(ManipulatorParams, params, model)), None
         if model == "bicycle":
-            return BicycleSystem(BicycleNominal(_apply_overrides(BicycleParams, params, model)))
-        raise DiagnosisError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+            return BicycleNominal(_apply_overrides(BicycleParams, params, model)), None
+        if ":" not in model:
+            raise DiagnosisError(f"unknown model {model!r}; use one of {', '.join(MODELS)} "
+                                 "or path/to/model.py:NAME")
+        if params:
+            raise DiagnosisError(f"parameter overrides apply to built-in models only; set the "
+                                 f"parameters in {model.rsplit(':', 1)[0]}")
+        return load_model_file(model), model
     if params:
         raise DiagnosisError("parameter overrides apply to built-in model names only")
-    if isinstance(model, BicycleNominal):
-        return BicycleSystem(model)
-    if isinstance(model, MechanicalNominalModel):
-        return MechanicalSystem(model)
-    if hasattr(model, "prepare") and hasattr(model, "candidates"):
+    if is_adapter(model):
+        return model, None
+    if not isinstance(model, MechanicalNominalModel | BicycleNominal):
+        raise DiagnosisError(f"cannot diagnose with {model!r}: pass a model name, a "
+                             "MechanicalNominalModel, a BicycleNominal or a system adapter")
+    check_model(model)
+    return model, None
+
+
+def make_system(model: str | Any, params: Mapping[str, Any] | None = None, *,
+                recorded: Iterable[str] | None = None) -> Any:
+    """Adapter for a model name, a nominal-model object or an adapter (returned as is).
+
+    One rule for every way in (Python API, CLI, built-in or user model): the two-link arm
+    gets the arm's adapter, a bicycle-type model the force-residual adapter, and any other
+    mechanical model an adapter over its own canonical columns and units.
+
+    Args:
+        model: see :func:`resolve_model`.
+        params: overrides of the nominal parameters (built-in names).
+        recorded: canonical columns the recording holds; decides whether a mechanical
+            model's velocities are read or derived. ``None``: from the model's declaration.
+    """
+    obj, _ = resolve_model(model, params)
+    return _adapter(obj, None if recorded is None else set(recorded))
+
+
+def _adapter(model: Any, recorded: set[str] | None) -> Any:
+    if is_adapter(model):
         return model
-    raise DiagnosisError(f"cannot diagnose with {model!r}: pass a model name, a "
-                         "MechanicalNominalModel, a BicycleNominal or a system adapter")
+    if isinstance(model, BicycleNominal):
+        return BicycleSystem(model, name=getattr(model, "name", None) or "bicycle")
+    if isinstance(model, ManipulatorNominal):
+        return MechanicalSystem(model)
+    velocities = None
+    if recorded is not None:
+        n = len(model.input_names)
+        velocities = all(c in recorded for c in tuple(model.obs_names)[n:2 * n])
+    return ModelMechanicalSystem(model, velocities=velocities)
+
+
+def _read(recording: Recording | str | os.PathLike, model: Any,
+          columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None) -> Recording:
+    """The recording in the model's canonical columns (validated like a file).
+
+    An explicit ``columns`` map always applies. The model's own ``column_map`` applies to
+    files, and to in-memory recordings unless they already hold the canonical columns.
+    """
+    if isinstance(columns, Mapping):
+        columns = ColumnMap.from_dict(columns)
+    elif isinstance(columns, str | os.PathLike):
+        columns = ColumnMap.from_json(columns)
+    if is_adapter(model):  # a ready adapter reads its own column names
+        if columns is not None:
+            raise DiagnosisError("a column map applies to models, not to a ready adapter")
+        required = model.columns.required
+        if isinstance(recording, Recording):
+            return recording_from_arrays(recording.name, recording.columns, required,
+                                         meta=recording.meta)
+        return read_recording(recording, required)
+    schema = RecordingSchema.of(model)
+    cmap = columns
+    if cmap is None and getattr(model, "column_map", None) is not None:
+        cmap = _column_map_of(model)  # the model's own map, checked against its schema
+        if isinstance(recording, Recording) and all(c in recording.columns
+                                                    for c in schema.required):
+            cmap = None  # an in-memory recording already in canonical columns
+    if isinstance(recording, Recording):
+        return conform(recording, schema, cmap)
+    return read_columns(recording, schema, cmap)
+
+
+def first_seconds(rec: Recording, duration: float) -> Recording:
+    """Keep the first ``duration`` seconds of a recording (a quick look at a long one)."""
+    if not np.isfinite(duration) or duration <= 0:
+        raise DiagnosisError(f"duration must be a positive number of seconds, got "
+                             f"{duration!r}")
+    keep = rec.t <= rec.t[0] + duration
+    return Recording(rec.name, {k: v[keep] for k, v in rec.columns.items()}, dict(rec.meta))
 
 
 def fmt(value: float, stderr: float) -> tuple[str, str]:
@@ -197,31 +294,57 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
 
 
 def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manipulator2dof",
-             params: Mapping[str, Any] | None = None, *, horizon: float | None = None,
-             train_fraction: float = 0.7) -> Report:
-    """Diagnose a recording against a nominal model.
+             params: Mapping[str, Any] | None = None, *,
+             columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None = None,
+             horizon: float | None = None, train_fraction: float = 0.7,
+             duration: float | None = None) -> Report:
+    """Diagnose a recording against a nominal model (the one entry point).
+
+    The CLI (``simgap diagnose``) calls this too, so a model gives the same columns, units
+    and numbers whether it is named on the command line or passed as an object.
 
     Args:
         recording: a :class:`Recording` or a CSV/Parquet path.
-        model: ``"manipulator2dof"``, ``"bicycle"``, a nominal-model object or an adapter.
+        model: ``"manipulator2dof"``, ``"bicycle"``, ``"path/to/model.py:NAME"``, a
+            nominal-model object or a ready adapter.
         params: overrides of the nominal parameters by name (built-in models).
+        columns: where the model's canonical columns come from in the file: a
+            :class:`~simgap.recordings.ColumnMap`, a dict in its JSON form, or the path of
+            such a JSON file. Default: the model's own ``column_map``, else the canonical
+            names.
         horizon: simulation window of the comparison (s); default per system.
         train_fraction: earliest share of the recording used for fitting.
+        duration: diagnose only the first ``duration`` seconds (s); ``None`` = all.
 
     Returns:
-        The :class:`Report`.
+        The :class:`Report`. Its ``processing`` section records the model file and the
+        column map used (and what the map changed, e.g. despiked rows).
 
     Raises:
         RecordingError: unusable recording (one-line message).
         DiagnosisError: unknown model or parameter.
+        CustomModelError: unusable model file, model or column map.
     """
-    system = make_system(model, params)
-    required = system.columns.required
-    if isinstance(recording, Recording):  # validated like a file
-        rec = recording_from_arrays(recording.name, recording.columns, required,
-                                    meta=recording.meta)
-    else:
-        rec = read_recording(recording, required)
+    obj, spec = resolve_model(model, params)
+    rec = _read(recording, obj, columns)
+    if duration is not None:
+        rec = first_seconds(rec, duration)
+    system = _adapter(obj, set(rec.columns))
+    report = _run(rec, system, horizon, train_fraction)
+    processing = report.data["processing"]
+    if spec is not None:
+        processing["model_file"] = spec
+    for key in ("column_map", "notes"):
+        if key in rec.meta:
+            processing[key] = rec.meta[key]
+    if spec is not None and hasattr(report.augmented, "source"):
+        report.augmented.source = spec
+    return report
+
+
+def _run(rec: Recording, system: Any, horizon: float | None,
+         train_fraction: float) -> Report:
+    """The pipeline on a validated recording in the adapter's columns."""
     try:
         res = system.prepare(rec)
     except ValueError as err:
@@ -272,7 +395,9 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
                                          system.model.params, sigma=system.coulomb_sigma,
                                          dt=system.smoother.dt)
     else:
-        augmented = AugmentedMechanical(system.model, system, fitted)
+        augmented = AugmentedMechanical(system.model, system, fitted, effects=[
+            {"effect": e["effect"], "channel": e["channel"], "params": e["parameters"]}
+            for e in entries])
     t = res.t
     data = {
         "schema": 1,

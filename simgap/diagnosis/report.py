@@ -211,7 +211,7 @@ def markdown(data: dict[str, Any]) -> str:
             f"{v:.4g}" for v in f[m]["rollout_rmse"]) + f" | {f[m]['rollout_score']:.3g} |")
     out += ["", "![nominal vs augmented simulation](simulation.png)", "",
             "The augmented model is saved as `augmented_model.json` "
-            "(`simgap.diagnosis.augmented.load_model`).", ""]
+            "(`simgap.diagnosis.load_augmented`).", ""]
     return "\n".join(out)
 
 
@@ -232,8 +232,7 @@ def write_report(report, out_dir: str | os.PathLike, figures: bool = True) -> Pa
                                                     allow_nan=False),
                                          encoding="utf-8")
         (tmp / "report.md").write_text(markdown(report.data), encoding="utf-8")
-        if hasattr(report.augmented, "to_dict"):
-            save_model(report.augmented, tmp / "augmented_model.json")
+        save_model(report.augmented, tmp / "augmented_model.json")  # every model has one
         if figures:
             _fig_residual_time(report, tmp / "residual_time.png")
             _fig_residual_vs(report, tmp / "residual_vs_variable.png")

@@ -1,7 +1,7 @@
 """System adapters: how a recording and a nominal model become residual channels.
 
 An adapter knows, for one kind of nominal model, which recording columns hold time, states
-and inputs (a :class:`ColumnMap`), how to compute the physical residual from filtered
+and inputs (:class:`AdapterColumns`), how to compute the physical residual from filtered
 signals, which vocabulary effects apply, and how to simulate nominal and augmented models
 for the comparison. Two adapters exist:
 
@@ -21,14 +21,17 @@ channel's modelled force/torque RMS.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
 from scipy.signal import lfilter
 
 from simgap.diagnosis.effects import BICYCLE_EFFECTS, MECHANICAL_EFFECTS, PAYLOAD, Effect
+from simgap.diagnosis.forms import EffectContext
 from simgap.diagnosis.residual import (
     ResidualResult,
     Smoother,
@@ -38,6 +41,7 @@ from simgap.diagnosis.residual import (
     noise_std,
     uniform_grid,
 )
+from simgap.errors import CustomModelError
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, axle_loads, state_derivative
@@ -46,8 +50,11 @@ from simgap.recordings import Recording
 
 
 @dataclass(frozen=True, kw_only=True)
-class ColumnMap:
-    """Which recording columns hold the model's quantities.
+class AdapterColumns:
+    """Which recording columns hold the model's quantities (the adapters' own view).
+
+    Users describe their files with :class:`simgap.recordings.ColumnMap` instead; this
+    class was ``simgap.diagnosis.systems.ColumnMap`` (a deprecated alias for one release).
 
     Attributes:
         t: time column (s).
@@ -77,12 +84,12 @@ class ColumnMap:
         return cols + ((self.vx,) if self.vx else ())
 
 
-MANIPULATOR_COLUMNS = ColumnMap(q=("q1", "q2"), dq=("dq1", "dq2"), u=("tau1", "tau2"))
+MANIPULATOR_COLUMNS = AdapterColumns(q=("q1", "q2"), dq=("dq1", "dq2"), u=("tau1", "tau2"))
 STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
-BICYCLE_COLUMNS = ColumnMap(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
+BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
 
 
 def _held(u: np.ndarray, hold: str) -> np.ndarray:
@@ -137,7 +144,7 @@ class MechanicalSystem:
 
     kind = "mechanical"
 
-    def __init__(self, model: MechanicalNominalModel, columns: ColumnMap = MANIPULATOR_COLUMNS,
+    def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns = MANIPULATOR_COLUMNS,
                  name: str | None = None, channels: Sequence[str] | None = None) -> None:
         self.model = model
         self.columns = columns
@@ -250,8 +257,15 @@ class MechanicalSystem:
         out["idx"] = idx
         return out
 
-    def set_context(self, terms: Sequence[tuple]) -> None:
-        """Couple terms of one model (nothing to couple for mechanical effects)."""
+    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
+        """Effects' context: Coulomb smoothing, gravity torques, the arm's payload regressor.
+
+        Mechanical terms do not couple, so ``terms`` changes nothing.
+        """
+        return EffectContext(n_channels=self.n_channels, coulomb_sigma=self.coulomb_sigma,
+                             gravity=self.gravity,
+                             payload_regressor=self.payload_regressor if self.is_manipulator
+                             else None)
 
     def fit_mask(self) -> np.ndarray:
         """Rows (N, n) whose joint residual is determinate: |dq| above 3 Coulomb widths.
@@ -287,15 +301,16 @@ class MechanicalSystem:
         nc = self.n_channels
         zero = {"q": q, "dq": dq, "ddq": np.zeros((n, nc))}
         b = np.zeros((n, nc))
+        ctx = self.context(effects)
         a = np.zeros((n, nc, nc))
         for eff, idx, lin, nl in effects:
-            base = eff(lin, nl, zero, idx, self)
+            base = eff(lin, nl, zero, idx, ctx)
             b += base
             if eff.uses_derivatives:
                 for j in range(nc):
                     unit = np.zeros((n, nc))
                     unit[:, j] = 1.0
-                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, self) - base
+                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, ctx) - base
         return a, b
 
     def acceleration(self, q, dq, u, effects) -> np.ndarray:
@@ -344,7 +359,7 @@ class BicycleSystem:
     kind = "bicycle"
 
     def __init__(self, model: BicycleNominal | None = None,
-                 columns: ColumnMap = BICYCLE_COLUMNS, name: str = "bicycle",
+                 columns: AdapterColumns = BICYCLE_COLUMNS, name: str = "bicycle",
                  tire: MagicFormulaTire | None = None) -> None:
         self.model = model or BicycleNominal()
         self.params = self.model.params
@@ -363,7 +378,6 @@ class BicycleSystem:
         self.derivative_units = ("m/s²", "rad/s²")
         self.rollout_horizon = 1.0
         self._lag_cache: dict[tuple[int, float], np.ndarray] = {}
-        self.axle_mu: dict[int, float] = {}
 
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
         """Vocabulary effects to test (steering lag only on axles whose command varies)."""
@@ -447,14 +461,18 @@ class BicycleSystem:
         out["idx"] = idx
         return out
 
-    def set_context(self, terms: Sequence[tuple]) -> None:
-        """Record the mu of tire_saturation terms per axle (used by the steering lag).
+    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
+        """Effects' context for one model made of ``terms``.
 
         Args:
-            terms: (effect, axle index, lin, nl) of one model.
+            terms: (effect, axle index, lin, nl) of one model; the mu of its
+                tire_saturation terms per axle is what the steering lag composes with.
         """
-        self.axle_mu = {i: float(nl[0]) for eff, i, _lin, nl in terms
-                        if eff.name == "tire_saturation"}
+        return EffectContext(n_channels=2, stiffness=self.stiffness, loads=self.loads,
+                             tire=self.tire, K_inv=self.K_inv,
+                             lagged_steering=self.lagged_steering,
+                             axle_mu={i: float(nl[0]) for eff, i, _lin, nl in terms
+                                      if eff.name == "tire_saturation"})
 
     def fit_mask(self) -> np.ndarray:
         """All rows are used for fitting (N, 2)."""
@@ -487,18 +505,18 @@ class BicycleSystem:
                "alpha_f": u[:, 0] - (x[:, 0] + lf * x[:, 1]) / vx,
                "alpha_r": u[:, 1] - (x[:, 0] - lr * x[:, 1]) / vx, "idx": idx,
                "dvy": np.zeros(len(idx)), "dr": np.zeros(len(idx))}
-        self.set_context(effects)
+        ctx = self.context(effects)
         k = self.model.K
         b = np.zeros((len(idx), 2))
         d = np.zeros((len(idx), 2, 2))
         for eff, i, lin, nl in effects:
-            base = eff(lin, nl, sig, i, self)
+            base = eff(lin, nl, sig, i, ctx)
             b += base
             if eff.uses_derivatives:
                 for j, key in enumerate(("dvy", "dr")):
                     s2 = dict(sig)
                     s2[key] = np.ones(len(idx))
-                    d[:, :, j] += eff(lin, nl, s2, i, self) - base
+                    d[:, :, j] += eff(lin, nl, s2, i, ctx) - base
         # dx = f + K (b + D dx)  →  (I − K D) dx = f + K b
         lhs = np.eye(2)[None] - np.einsum("ij,njk->nik", k, d)
         return np.linalg.solve(lhs, (f + b @ k.T)[..., None])[..., 0]
@@ -525,3 +543,140 @@ class BicycleSystem:
         k3 = self._deriv(s + 0.5 * dt * k2, k, effects, u)
         k4 = self._deriv(s + dt * k3, k, effects, u)
         return s + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+# --------------------------------------------------------------------------- adapters
+#: A Stribeck velocity above this share of the joint's largest recorded speed is not a
+#: low-speed effect any more: it would only reshape the Coulomb/viscous curve.
+STRIBECK_MAX_SHARE = 0.25
+
+
+def _mechanical_names(model: Any) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
+    """Canonical (positions, velocities, inputs) column names of a mechanical model."""
+    obs = tuple(getattr(model, "obs_names", ()))
+    n = len(model.input_names)
+    if len(obs) != 2 * n:
+        raise CustomModelError(f"{_label(model)}: a mechanical model needs obs_names = "
+                               f"positions + velocities (2 × {n} names), got {obs}")
+    return obs[:n], obs[n:], tuple(model.input_names)
+
+
+def _joint_units(model: Any, n: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(position units, effort units) per joint; revolute SI units by default."""
+    obs_units = tuple(getattr(model, "obs_units", ()))
+    pos = obs_units[:n] if len(obs_units) == 2 * n else ("rad",) * n
+    eff = tuple(getattr(model, "residual_units", ()) or ())
+    if len(eff) != n or any(u.startswith("(") for u in eff):
+        eff = tuple(model.input_units) if len(model.input_units) == n else ("N·m",) * n
+    return pos, eff
+
+
+def translate_unit(unit: str, position: str, effort: str) -> str:
+    """Rewrite a vocabulary unit written for a revolute joint (rad, N·m) for this joint.
+
+    Example: for a prismatic joint (m, N), ``N·m·s`` (viscous b) becomes ``N·s/m`` and
+    ``kg·m²`` (inertia) becomes ``kg``.
+    """
+    if position == "rad" and effort == "N·m":
+        return unit
+    table = {
+        "N·m·s": f"{effort}·s/{position}", "N·m/rad": f"{effort}/{position}",
+        "N·m": effort, "rad/s²": f"{position}/s²", "rad/s": f"{position}/s", "rad": position,
+        "kg·m²": "kg" if (position, effort) == ("m", "N") else f"{effort}·s²/{position}",
+    }
+    return table.get(unit, unit)
+
+
+class ModelMechanicalSystem(MechanicalSystem):
+    """:class:`~simgap.diagnosis.systems.MechanicalSystem` for any mechanical model.
+
+    Differences from the base adapter, all driven by the model or the data:
+
+    * units come from the model: positions/velocities from ``obs_units``, efforts from
+      ``residual_units`` (N for a prismatic joint), and every vocabulary parameter's unit is
+      rewritten accordingly (viscous b in N·s/m, Coulomb Fc in N, …);
+    * the Stribeck velocity vs is bounded by :data:`STRIBECK_MAX_SHARE` of the joint's
+      largest recorded speed (and its start grid scales with it): the bounds of the
+      vocabulary, in rad/s, mean nothing for a slider moving at 0.1 m/s, and a "Stribeck"
+      term with vs near the top speed only reshapes Coulomb + viscous friction (on the EMPS
+      data it then displaces the Coulomb term; see ``tests/diagnosis/test_real_emps.py``);
+    * whole-arm ``gravity_mismatch`` is not tested when the model has no gravity torque on
+      the recorded positions.
+
+    Args:
+        model: the nominal model.
+        name: model name for the report (default: the model's ``name``).
+        velocities: whether the recording holds the velocities (canonical ``dq`` columns);
+            ``None``: recorded unless the model's column map leaves them out.
+    """
+
+    def __init__(self, model: MechanicalNominalModel, name: str | None = None, *,
+                 velocities: bool | None = None) -> None:
+        q, dq, u = _mechanical_names(model)
+        if velocities is None:  # decided by the model's declaration and column map
+            recorded = set(getattr(model, "recording_columns", ()))
+            cmap = getattr(model, "column_map", None)
+            velocities = all(c in recorded and (cmap is None or c in cmap.columns) for c in dq)
+        columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
+        channels = tuple(getattr(model, "channel_names", ()) or ())
+        super().__init__(model, columns=columns, name=name or _label(model),
+                         channels=channels if len(channels) == len(q) else None)
+        self.position_units, effort = _joint_units(model, len(q))
+        self.channel_units = effort
+        self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
+        self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
+
+    def _unit(self, unit: str, j: int | None) -> str:
+        k = 0 if j is None else j
+        return translate_unit(unit, self.position_units[k], self.channel_units[k])
+
+    def candidates(self) -> list[tuple[Effect, int | None, str]]:
+        """List the base candidates with model units and data-scaled Stribeck bounds."""
+        out = []
+        vmax = np.max(np.abs(self.sig["dq"]), axis=0)
+        gravity = np.abs(self.gravity(self.sig["q"])).max() if self.sig["q"].size else 0.0
+        for effect, j, channel in super().candidates():
+            if effect.name == "gravity_mismatch" and gravity == 0.0:
+                continue
+            changes: dict[str, Any] = {
+                "lin_units": tuple(self._unit(u, j) for u in effect.lin_units),
+                "nl_units": tuple(self._unit(u, j) for u in effect.nl_units)}
+            if effect.name == "stribeck_friction" and j is not None:
+                hi = max(STRIBECK_MAX_SHARE * float(vmax[j]), 2e-3)
+                changes["nl_bounds"] = ((1e-3 * hi, hi),)
+                changes["nl_grid"] = (tuple(hi * np.array([0.05, 0.15, 0.4, 0.9])),)
+            if effect.to_report is not None:
+                changes["to_report"] = _report_in_units(effect.to_report, self._unit, j)
+            out.append((dataclasses.replace(effect, **changes), j, channel))
+        return out
+
+    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+        """Positions, velocities and accelerations with the model's units."""
+        out = super().locate_variables()
+        units = self.position_units + self.state_units[self.n_channels:] + \
+            self.derivative_units
+        return {k: (v, units[i]) for i, (k, (v, _)) in enumerate(out.items())}
+
+
+def _report_in_units(fn: Any, unit: Any, j: int | None) -> Any:
+    """Wrap an effect's report function so that its units are rewritten for the joint."""
+    def report(*args: Any, **kwargs: Any) -> tuple[dict, dict, dict]:
+        params, stderr, units = fn(*args, **kwargs)
+        return params, stderr, {k: unit(u, j) for k, u in units.items()}
+    return report
+
+
+
+def _label(model: Any) -> str:
+    return getattr(model, "name", None) or type(model).__name__
+
+
+def __getattr__(name: str) -> Any:
+    """Deprecated aliases (one release): ``ColumnMap`` is now :class:`AdapterColumns`."""
+    if name == "ColumnMap":
+        warnings.warn("simgap.diagnosis.systems.ColumnMap is deprecated: describe a file with "
+                      "simgap.recordings.ColumnMap (diagnose(..., columns=)); the adapters' "
+                      "own column spec is simgap.diagnosis.systems.AdapterColumns",
+                      DeprecationWarning, stacklevel=2)
+        return AdapterColumns
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,30 +11,26 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from simgap.diagnosis.custom import (
-    Column,
-    ColumnMap,
-    CustomModelError,
-    ModelMechanicalSystem,
-    check_model,
-    column_map_of,
-    despike,
-    diagnose_custom,
-    load_model,
-    make_system,
-    read_mapped,
-    translate_unit,
-    with_columns,
-)
+from simgap.diagnosis import diagnose
+from simgap.diagnosis.pipeline import make_system
+from simgap.diagnosis.systems import ModelMechanicalSystem, translate_unit
+from simgap.diagnosis.user_models import check_model, column_map_of, with_columns
+from simgap.diagnosis.user_models import load_model_file as load_model
+from simgap.errors import CustomModelError
 from simgap.models.bicycle import BicycleNominal
 from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
-from simgap.recordings import RecordingError
+from simgap.recordings import Column, ColumnMap, RecordingError, RecordingSchema, despike, read
 from tests.conftest import REPO_ROOT
 
 EXAMPLES = REPO_ROOT / "examples"
 
+
+def read_mapped(path: Path, model: object):
+    """A recording in the model's canonical columns, through its own column map."""
+    return read(path, RecordingSchema.of(model), column_map_of(model))
+
 AXIS_FILE = """
-from simgap.diagnosis.custom import Column, with_columns
+from simgap.diagnosis import Column, with_columns
 from simgap.models.base import BaseNominalModel
 from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
 
@@ -129,7 +125,7 @@ def test_import_failure_is_one_line(tmp_path: Path) -> None:
 
 def test_bad_column_map_in_file(tmp_path: Path) -> None:
     path = tmp_path / "cm.py"
-    path.write_text("from simgap.diagnosis.custom import with_columns\n"
+    path.write_text("from simgap.diagnosis import with_columns\n"
                     "from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams\n"
                     "M = with_columns(RigidAxisNominal(RigidAxisParams(mass=1.0)), t='a', "
                     "x='b', u='c')\n")
@@ -311,11 +307,11 @@ def test_make_system_uses_recorded_velocity_when_mapped() -> None:
 def test_name_may_be_a_ready_adapter(tmp_path: Path) -> None:
     path = tmp_path / "adapter.py"
     path.write_text(
-        "from simgap.diagnosis.systems import ColumnMap, MechanicalSystem\n"
+        "from simgap.diagnosis.systems import AdapterColumns, MechanicalSystem\n"
         "from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams\n"
         "def SYSTEM():\n"
         "    return MechanicalSystem(RigidAxisNominal(RigidAxisParams(mass=2.0)),\n"
-        "        columns=ColumnMap(t='time', q=('pos',), u=('volts',), u_scale=(3.0,)))\n")
+        "        columns=AdapterColumns(t='time', q=('pos',), u=('volts',), u_scale=(3.0,)))\n")
     system = load_model(f"{path}:SYSTEM")
     assert make_system(system) is system
 
@@ -359,7 +355,7 @@ def test_readme_one_dof_example_finds_the_hidden_friction(tmp_path: Path) -> Non
     model_file.write_text(_readme_example(), encoding="utf-8")
     log = tmp_path / "axis_log.csv"
     _simulate_axis(log, mass=12.0, b=30.0, fc=5.0, seed=3)
-    report = diagnose_custom(f"{model_file}:AXIS", log)
+    report = diagnose(log, f"{model_file}:AXIS")
     eff = {e["effect"]: e for e in report.data["effects"]}
     assert {"viscous_friction", "coulomb_friction"} <= set(eff)
     assert eff["viscous_friction"]["channel"] == "x_axis"

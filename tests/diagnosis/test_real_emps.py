@@ -25,8 +25,15 @@ import numpy as np
 import pytest
 from scipy.signal import savgol_filter
 
-from simgap.diagnosis.custom import load_model, read_mapped
+from simgap.diagnosis.user_models import column_map_of
+from simgap.diagnosis.user_models import load_model_file as load_model
+from simgap.recordings import RecordingSchema, read
 from tests.conftest import REPO_ROOT, shared_path
+
+
+def read_mapped(path, model):
+    """The recording in the model's canonical columns, through its column map."""
+    return read(path, RecordingSchema.of(model), column_map_of(model))
 
 #: Published IDIM-LS values (Janot, Gautier, Brunot 2019): N·s/m, N, N.
 PUBLISHED = {"Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}
@@ -104,12 +111,11 @@ def test_reference_sees_the_asymmetric_friction(emps) -> None:
 @pytest.fixture(scope="module")
 def reports():
     """The diagnosis of both EMPS sets (estimation, pulses): ~2 s each."""
-    from simgap.diagnosis.custom import diagnose_custom
+    from simgap.diagnosis import diagnose
 
     out = {}
     for name in ("emps_estimation", "emps_validation_pulses"):
-        out[name] = diagnose_custom(MODEL_SPEC, shared_path("data", "real", "emps",
-                                                            f"{name}.csv"))
+        out[name] = diagnose(shared_path("data", "real", "emps", f"{name}.csv"), MODEL_SPEC)
     return out
 
 

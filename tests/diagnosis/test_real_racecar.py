@@ -15,10 +15,17 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from simgap.diagnosis.custom import load_model, read_mapped
+from simgap.diagnosis.user_models import column_map_of
+from simgap.diagnosis.user_models import load_model_file as load_model
 from simgap.models.bicycle import BicycleParams, slip_angles, state_derivative
 from simgap.models.tires import magic_formula
+from simgap.recordings import RecordingSchema, read
 from tests.conftest import REPO_ROOT, shared_path
+
+
+def read_mapped(path, model):
+    """The recording in the model's canonical columns, through its column map."""
+    return read(path, RecordingSchema.of(model), column_map_of(model))
 
 MODEL_SPEC = f"{REPO_ROOT / 'examples' / 'racecar_model.py'}:RACECAR"
 
@@ -130,8 +137,7 @@ QUICK_ROWS = 25_000
 
 
 def _diagnose(car, rows: int | None):
-    from simgap.diagnosis.custom import make_system
-    from simgap.diagnosis.pipeline import diagnose
+    from simgap.diagnosis.pipeline import diagnose, make_system
     from simgap.recordings import Recording
 
     model, rec = car
