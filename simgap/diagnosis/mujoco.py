@@ -80,12 +80,16 @@ class MujocoSystem(ModelMechanicalSystem):
     def __init__(self, model: MujocoNominal) -> None:
         super().__init__(model, name=model.name)
         self.points = model.tip_points()
+        self.payload_effects = [_payload_at(p) for p in self.points]
+        #: id(payload effect) → its tip point (name, body id, position in the body frame).
+        self.payload_points = {id(e): p for e, p in zip(self.payload_effects, self.points,
+                                                        strict=True)}
         self._payload_cache: dict[tuple, np.ndarray] = {}
 
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
         """Joint vocabulary (model units), payload per tip point, input delay per joint."""
         out = super().candidates()
-        out += [(_payload_at(p), None, "arm") for p in self.points]
+        out += [(e, None, "arm") for e in self.payload_effects]
         out += [(INPUT_DELAY, j, self.channels[j]) for j in range(self.n_channels)]
         return out
 
