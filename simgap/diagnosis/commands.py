@@ -68,8 +68,11 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def diagnose(
         recording: Path = typer.Argument(..., help="Recording (.csv or .parquet)."),
-        model: str = typer.Option(..., "--model", help="manipulator2dof, bicycle, or "
-                                  "path/to/model.py:NAME (see examples/README.md)."),
+        model: str = typer.Option(..., "--model", help="manipulator2dof, bicycle, "
+                                  "path/to/model.py:NAME (see examples/README.md), or an "
+                                  "MJCF robot.xml (needs the 'mujoco' extra)."),
+        columns: Path = typer.Option(None, "--columns", help="JSON map of an MJCF model's "
+                                     "columns to yours, e.g. {\"t\": \"time_s\"}."),
         params: Path = typer.Option(None, "--params", help="JSON overrides of nominal "
                                     "parameters, e.g. {\"m\": 2.5}."),
         out: Path = typer.Option(None, "--out", help="Report folder (default "
@@ -82,18 +85,28 @@ def register(app: typer.Typer) -> None:
         from simgap.diagnosis.pipeline import DiagnosisError, default_out_dir
         from simgap.diagnosis.pipeline import diagnose as run
         from simgap.diagnosis.report import summary_lines, write_report
+        from simgap.errors import ModelError
         from simgap.recordings import RecordingError
 
         overrides = _load_params(params)
+        if columns is not None and not model.lower().endswith(".xml"):
+            _fail(f"{columns}: --columns applies to MJCF models (--model robot.xml) only")
         try:
-            if ":" in model:  # a user-defined model file (simgap.diagnosis.custom)
+            if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
+                if overrides:
+                    _fail(f"{params}: --params applies to built-in models only; edit {model}")
+                from simgap.diagnosis.mujoco import diagnose_mjcf
+
+                report = diagnose_mjcf(model, recording, columns=columns)
+            elif ":" in model:  # a user-defined model file (simgap.diagnosis.custom)
                 if overrides:
                     _fail(f"{params}: --params applies to built-in models only; set the "
                           f"parameters in {model.rsplit(':', 1)[0]}")
                 report = diagnose_custom(model, recording)
             else:
                 report = run(recording, model, overrides)
-        except (RecordingError, DiagnosisError, GeneratorError, CustomModelError) as err:
+        except (RecordingError, DiagnosisError, GeneratorError, CustomModelError,
+                ModelError) as err:
             _fail(str(err))
         target = out or default_out_dir(recording)
         try:
@@ -102,6 +115,10 @@ def register(app: typer.Typer) -> None:
             _fail(f"{target}: cannot write the report ({err.strerror or err})")
         for line in summary_lines(report.data):
             typer.echo(line)
+        if "mjcf" in report.data:
+            for line in report.data["mjcf"]["changes"]:
+                typer.echo(f"MJCF: {line}")
+            typer.echo(f"corrected MJCF: {target / 'augmented_model.xml'}")
         typer.echo(f"report: {target / 'report.md'}")
 
     @app.command()

@@ -173,9 +173,12 @@ def corrected_mjcf(xml: str | Path, model: MujocoNominal, fitted: list[tuple],
             notes.append(f"{effect.label} at {where}: no MJCF counterpart; "
                          f"{NO_COUNTERPART.get(name, 'not written')}")
     ET.indent(tree, space="  ")
+    original = xml.read_text(encoding="utf-8")
+    start = original.find("<mujoco")
     head = (f"<!-- Written by simgap from {xml.name}: a copy with only the changes the "
             "diagnosis named, each commented. -->\n")
-    return head + ET.tostring(root, encoding="unicode") + "\n", notes
+    prolog = original[:start] if start > 0 and not original.startswith("<?xml") else ""
+    return head + prolog + ET.tostring(root, encoding="unicode") + "\n", notes
 
 
 def write_corrected_mjcf(report: Any, xml: str | Path, path: str | Path) -> list[str]:
