@@ -18,15 +18,17 @@ from simgap.errors import GeneratorError
 from simgap.models.mujoco import MujocoNominal, load_model
 
 
-def record_mjcf(source: object, *, duration: float = 20.0, control_dt: float = 0.002,
+def record_mjcf(source: object, *, joints: list[str] | None = None, duration: float = 20.0,
+                control_dt: float = 0.002,
                 seed: int = 0, bandwidth: float = 3.0, amplitude: float = 0.6,
                 q_noise: float = 1e-5, dq_noise: float = 1e-4) -> dict[str, np.ndarray]:
     """Simulate an MJCF under PD tracking of random multisines and log it.
 
     Args:
-        source: MJCF path or ``MjModel`` of the "real" robot (torque-driven: one motor with
-            gear·gain = 1 per joint is assumed if it has actuators; otherwise efforts go to
-            ``qfrc_applied``).
+        source: MJCF path or ``MjModel`` of the "real" robot. A joint driven by a motor
+            actuator gets ctrl = effort / (gear · gain); others get the effort in
+            ``qfrc_applied``.
+        joints: the joints to drive and log (default all hinge/slide joints).
         duration: length (s).
         control_dt: control and logging period (s), a multiple of the model timestep.
         seed: seed of the references and the noise.
@@ -41,7 +43,7 @@ def record_mjcf(source: object, *, duration: float = 20.0, control_dt: float = 0
     import mujoco
 
     model, _ = load_model(source)
-    nominal = MujocoNominal(model)
+    nominal = MujocoNominal(model, joints=joints)
     n_sub = int(round(control_dt / model.opt.timestep))
     if n_sub < 1 or abs(n_sub * model.opt.timestep - control_dt) > 1e-12:
         raise GeneratorError(f"control_dt {control_dt} s is not a multiple of the model "
@@ -66,6 +68,7 @@ def record_mjcf(source: object, *, duration: float = 20.0, control_dt: float = 0
     w0 = 2 * np.pi * bandwidth
     kp, kd = m_diag * w0**2, m_diag * 2 * w0
     act = {int(model.actuator_trnid[a, 0]): a for a in range(model.nu)}
+    gain = model.actuator_gear[:, 0] * model.actuator_gainprm[:, 0]
     steps = int(round(duration / control_dt))
     out = {k: np.empty(steps) for k in ("t",) + nominal.recording_columns[1:]}
     for k in range(steps):
@@ -80,7 +83,7 @@ def record_mjcf(source: object, *, duration: float = 20.0, control_dt: float = 0
             out[f"tau_{name}"][k] = tau[j]
             jid = int(nominal.joint_ids[j])
             if jid in act:
-                data.ctrl[act[jid]] = tau[j]
+                data.ctrl[act[jid]] = tau[j] / gain[act[jid]]
             else:
                 data.qfrc_applied[nominal.dof[j]] = tau[j]
         for _ in range(n_sub):

@@ -152,11 +152,11 @@ def corrected_mjcf(xml: str | Path, model: MujocoNominal, fitted: list[tuple],
                 notes.append(f"{model.joint_names[j]}: input delay {nl[0]:.4g} s, but no "
                              "actuator drives this joint: delay your applied efforts")
                 continue
+            actuators = [e for sec in root.iter("actuator") for e in sec
+                         if isinstance(e.tag, str)]
             for a in acts:
-                aname = m.actuator(a).name
-                el = next((e for e in root.iter() if e.get("name") == aname
-                           and parent.get(e) is not None
-                           and parent[e].tag == "actuator"), None)
+                aname = m.actuator(a).name or f"actuator {a}"
+                el = actuators[a] if len(actuators) == m.nu else None
                 if el is None:
                     notes.append(f"actuator {aname!r} not in {xml.name}")
                     continue
@@ -226,7 +226,7 @@ def _assets(xml: Path) -> dict[str, bytes]:
 
 
 def holdout_rmse(source: object, columns: Mapping[str, np.ndarray], t_split: float,
-                 horizon: float = 0.2) -> np.ndarray:
+                 horizon: float = 0.2, joints: list[str] | None = None) -> np.ndarray:
     """Position RMSE per joint (rad or m) of MuJoCo's simulation over held-out windows.
 
     Args:
@@ -234,11 +234,12 @@ def holdout_rmse(source: object, columns: Mapping[str, np.ndarray], t_split: flo
         columns: the recording in canonical columns (``t``, ``q_*``, ``dq_*``, ``tau_*``).
         t_split: start of the held-out part (s).
         horizon: window length (s).
+        joints: the recorded joints (default all hinge/slide joints; others start at qpos0).
     """
     import mujoco
 
     m, _ = load_model(source)
-    nom = MujocoNominal(m)
+    nom = MujocoNominal(m, joints=joints)
     t = np.asarray(columns["t"], dtype=np.float64)
     q = np.stack([columns[f"q_{j}"] for j in nom.joint_names], axis=1)
     dq = np.stack([columns[f"dq_{j}"] for j in nom.joint_names], axis=1)

@@ -214,9 +214,10 @@ def default_columns(model: MujocoNominal, header: list[str]) -> dict[str, Column
 
 
 def load_mjcf_inputs(xml: str | Path, recording: str | Path,
-                     columns: str | Path | None = None) -> tuple[MujocoSystem, Any]:
+                     columns: str | Path | None = None,
+                     joints: list[str] | None = None) -> tuple[MujocoSystem, Any]:
     """(adapter, recording in canonical columns) for an MJCF nominal and a user's log."""
-    model = from_mjcf(Path(xml))
+    model = from_mjcf(Path(xml), joints=joints)
     recording = Path(recording)
     header = list(_read_table(recording).columns) if recording.is_file() else []
     cols = default_columns(model, header)
@@ -233,11 +234,21 @@ def load_mjcf_inputs(xml: str | Path, recording: str | Path,
 
 
 def diagnose_mjcf(xml: str | Path, recording: str | Path, *, columns: str | Path | None = None,
-                  duration: float | None = None, **kwargs: Any) -> Any:
-    """Run the diagnosis of ``recording`` against the MJCF ``xml``; returns the Report."""
+                  joints: list[str] | None = None, duration: float | None = None,
+                  **kwargs: Any) -> Any:
+    """Run the diagnosis of ``recording`` against the MJCF ``xml``; returns the Report.
+
+    Args:
+        xml: the nominal MJCF.
+        recording: the log (CSV/Parquet).
+        columns: optional ``--columns`` JSON file.
+        joints: joints to diagnose (default all hinge/slide joints; others held at qpos0).
+        duration: diagnose only the first ``duration`` seconds.
+        **kwargs: passed to :func:`simgap.diagnosis.pipeline.diagnose`.
+    """
     from simgap.diagnosis.pipeline import diagnose
 
-    system, rec = load_mjcf_inputs(xml, recording, columns)
+    system, rec = load_mjcf_inputs(xml, recording, columns, joints)
     if duration is not None:
         rec = first_seconds(rec, duration)
     report = diagnose(rec, system, **kwargs)
@@ -272,8 +283,9 @@ def attach_corrected_mjcf(report: Any, xml: str | Path) -> None:
         cols[f"dq_{name}"] = system.sig["dq"][:, j]
         cols[f"tau_{name}"] = system._u_hold[:, j]
     t_split = report.data["fit"]["split"]["test"][0]
-    before = holdout_rmse(system.model.mj_model, cols, t_split)
-    after = holdout_rmse(corrected, cols, t_split) if fitted else before
+    joints = list(system.model.joint_names)
+    before = holdout_rmse(system.model.mj_model, cols, t_split, joints=joints)
+    after = holdout_rmse(corrected, cols, t_split, joints=joints) if fitted else before
     report.mjcf_text = text
     report.data["mjcf"] = {
         "augmented_model": "augmented_model.xml",

@@ -91,7 +91,7 @@ class MujocoNominal(MechanicalNominalModel):
     instance is not thread-safe.
 
     Attributes:
-        mj_model: the compiled ``MjModel`` (its own copy; never changed by simgap).
+        mj_model: the compiled ``MjModel`` (never changed by simgap).
         joint_names: modelled joints, in order (the channels of the diagnosis).
         joint_types: ``"hinge"`` or ``"slide"`` per joint.
         ctrl_to_tau: (n_joints, n_actuators) map from controls to joint efforts (only when
@@ -366,4 +366,42 @@ def from_mjcf(source: object, joints: Sequence[str] | None = None, *, inputs: st
                          friction_velocity=friction_velocity)
 
 
-__all__ = ["FRICTION_VELOCITY", "JOINT_UNITS", "MujocoNominal", "from_mjcf", "load_model"]
+class MujocoEnvNominal(MujocoNominal):
+    """Nominal model of a Gymnasium MuJoCo env: its own ``MjModel``, state from its ``MjData``.
+
+    The state x = (q, dq) is read from ``env.unwrapped.data`` (``qpos``, ``qvel``) whatever the
+    observation holds (Reacher's observation has cosines and the target, InvertedPendulum's
+    is (qpos, qvel)); inputs are the env's actions (actuator controls) through the actuator
+    model; ``dt`` is the env's step period (``timestep · frame_skip``).
+    """
+
+    def __init__(self, env: object) -> None:
+        base = getattr(env, "unwrapped", env)
+        super().__init__(base.model, inputs="ctrl", dt=float(base.dt),
+                         name=f"mujoco:{type(base).__name__}")
+        self._env_data = base.data
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Joint positions and velocities of the env's current ``MjData`` (obs unused)."""
+        d = self._env_data
+        return np.concatenate([d.qpos[self.qadr], d.qvel[self.dof]]).astype(np.float64)
+
+
+def from_mujoco_env(env: object) -> MujocoEnvNominal:
+    """Nominal model of a Gymnasium MuJoCo env (``env.unwrapped.model`` / ``.data``).
+
+    Raises:
+        ModelError: the env is not a MuJoCo env, has free/ball joints, or non-motor
+            actuators.
+    """
+    base = getattr(env, "unwrapped", env)
+    mujoco = _mujoco()
+    if not (isinstance(getattr(base, "model", None), mujoco.MjModel)
+            and isinstance(getattr(base, "data", None), mujoco.MjData)):
+        raise ModelError(f"{type(base).__name__} is not a MuJoCo env (no MjModel in "
+                         "env.unwrapped.model and MjData in env.unwrapped.data)")
+    return MujocoEnvNominal(base)
+
+
+__all__ = ["FRICTION_VELOCITY", "JOINT_UNITS", "MujocoEnvNominal", "MujocoNominal", "from_mjcf",
+           "from_mujoco_env", "load_model"]
