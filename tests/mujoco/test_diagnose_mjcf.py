@@ -100,3 +100,20 @@ def test_column_map_and_bad_input(tmp_path):
     assert res.exit_code == 0, res.output
     res = runner.invoke(app, ["diagnose", str(log), "--model", str(tmp_path / "nope.xml")])
     assert res.exit_code == 2 and "nope.xml: MJCF file not found" in res.output
+
+
+def test_proof_benchmark_quick_variant():
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "mujoco_proof.py"),
+                           "--quick"], capture_output=True, text=True, timeout=600, cwd=root)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    res = json.loads(proc.stdout)
+    rows = res["systems"]["arm2dof"]
+    assert [r["case"] for r in rows] == ["clean", "damping", "delay"]
+    for row in rows:
+        assert row["correct"], row
+        assert row["corrected_better"], row
+    assert rows[1]["relative_error"] < 0.02 and rows[2]["relative_error"] < 0.15
