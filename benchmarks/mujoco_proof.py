@@ -34,67 +34,56 @@ ARM = ROOT / "examples" / "mujoco" / "arm2dof.xml"
 REACHER = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "reacher.xml"
 
 
-def _joint(xml: str, name: str, attrs: str) -> str:
-    for old in (f'name="{name}" type="hinge" axis="0 0 1"', f'limited="false" name="{name}"',
-                f'limited="true" name="{name}"'):
-        if old in xml:
-            return xml.replace(old, f"{old} {attrs}", 1)
-    raise KeyError(name)
-
-
+#: Hidden differences: (kind, where, value) with where a joint, a site/body, or an actuator
+#: index; the truth the diagnosis must name is derived from it (TRUTH).
+TRUTH = {"damping": ("viscous_friction", "b"), "frictionloss": ("coulomb_friction", "Fc"),
+         "armature": ("inertia_mismatch", "dI"), "payload": ("payload_mass", "mp"),
+         "delay": ("input_delay", "delay")}
 SYSTEMS = {
-    "arm2dof": {
-        "xml": ARM, "joints": None, "control_dt": 0.002,
-        "cases": {
-            "clean": (lambda x: x, None),
-            "damping": (lambda x: _joint(x, "elbow", 'damping="0.3"'),
-                        ("viscous_friction", "elbow", "b", 0.3)),
-            "frictionloss": (lambda x: _joint(x, "shoulder", 'frictionloss="0.5"'),
-                             ("coulomb_friction", "shoulder", "Fc", 0.5)),
-            "armature": (lambda x: x.replace(
-                'name="elbow" type="hinge" axis="0 0 1" armature="0.008118"',
-                'name="elbow" type="hinge" axis="0 0 1" armature="0.028118"'),
-                ("inertia_mismatch", "elbow", "dI", 0.02)),
-            "payload": (lambda x: x.replace(
-                '<site name="tip" pos="0.2 0 0"/>',
-                '<site name="tip" pos="0.2 0 0"/><body name="load" pos="0.2 0 0"><inertial '
-                'pos="0 0 0" mass="0.5" diaginertia="1e-6 1e-6 1e-6"/></body>'),
-                ("payload_mass", None, "mp", 0.5)),
-            "delay": (lambda x: x.replace(
-                '<motor name="shoulder_motor" joint="shoulder" gear="1"/>',
-                '<motor name="shoulder_motor" joint="shoulder" gear="1" delay="0.01" '
-                'nsample="12"/>'), ("input_delay", "shoulder", "delay", 0.01)),
-        },
-    },
-    "reacher": {
-        "xml": REACHER, "joints": ["joint0", "joint1"], "control_dt": 0.01,
-        "cases": {
-            "clean": (lambda x: x, None),
-            "damping": (lambda x: _joint(x, "joint1", 'damping="1.5"'),
-                        ("viscous_friction", "joint1", "b", 0.5)),
-            "frictionloss": (lambda x: _joint(x, "joint0", 'frictionloss="2.0"'),
-                             ("coulomb_friction", "joint0", "Fc", 2.0)),
-            "armature": (lambda x: _joint(x, "joint1", 'armature="1.3"'),
-                         ("inertia_mismatch", "joint1", "dI", 0.3)),
-            "payload": (lambda x: x.replace(
-                '<geom contype="0" name="fingertip"',
-                '<body name="load"><inertial pos="0 0 0" mass="2.0" diaginertia="1e-6 1e-6 '
-                '1e-6"/></body><geom contype="0" name="fingertip"'),
-                ("payload_mass", None, "mp", 2.0)),
-            "delay": (lambda x: x.replace(
-                'gear="200.0" joint="joint0"/>',
-                'gear="200.0" joint="joint0" delay="0.02" nsample="4"/>'),
-                ("input_delay", "joint0", "delay", 0.02)),
-        },
-    },
+    "arm2dof": {"xml": ARM, "joints": None, "control_dt": 0.002, "hidden": {
+        "damping": ("elbow", 0.3), "frictionloss": ("shoulder", 0.5),
+        "armature": ("elbow", 0.02), "payload": ("tip", 0.5), "delay": ("shoulder", 0.01)}},
+    "reacher": {"xml": REACHER, "joints": ["joint0", "joint1"], "control_dt": 0.01, "hidden": {
+        "damping": ("joint1", 0.5), "frictionloss": ("joint0", 2.0),
+        "armature": ("joint1", 0.3), "payload": ("fingertip", 2.0), "delay": ("joint0", 0.02)}},
 }
 
 
+def make_real(xml: Path, kind: str | None, where: str = "", value: float = 0.0):
+    """The "real" MjModel: the nominal MJCF with one hidden difference (MjSpec edit)."""
+    spec = mujoco.MjSpec.from_file(str(xml))
+    if kind in ("damping", "frictionloss", "armature"):
+        joint = spec.joint(where)
+        if kind == "damping":
+            damping = np.array(joint.damping)
+            damping[0] += value
+            joint.damping = damping
+        else:
+            setattr(joint, kind, getattr(joint, kind) + value)
+    elif kind == "payload":
+        site = spec.site(where)
+        parent, pos = (site.parent, site.pos) if site is not None else (spec.body(where),
+                                                                        np.zeros(3))
+        load = parent.add_body(name="hidden_load", pos=np.array(pos))
+        load.ipos, load.mass, load.inertia = np.zeros(3), value, [1e-6] * 3
+        load.explicitinertial = True
+    elif kind == "delay":
+        model = spec.compile()
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, where)
+        act = spec.actuators[[int(model.actuator_trnid[a, 0]) for a in range(model.nu)]
+                             .index(jid)]
+        act.delay = value
+        act.nsample = int(np.ceil(value / model.opt.timestep)) + 2
+    return spec.compile()
+
+
 def run_case(system: dict, name: str, duration: float, tmp: Path) -> dict:
-    make, truth = system["cases"][name]
-    real_xml = make(system["xml"].read_text())
+    where, value = system["hidden"].get(name, ("", 0.0))
+    truth = None if name == "clean" else (TRUTH[name][0],
+                                          None if name == "payload" else where,
+                                          TRUTH[name][1], value)
     t0 = time.perf_counter()
-    real = mujoco.MjModel.from_xml_string(real_xml)
+    real = make_real(system["xml"], None if name == "clean" else name, where, value)
     cols = record_mjcf(real, joints=system["joints"], duration=duration,
                        control_dt=system["control_dt"], seed=11)
     t1 = time.perf_counter()
@@ -143,7 +132,7 @@ def main() -> None:
         t0 = time.perf_counter()
         mujoco.MjModel.from_xml_path(str(system["xml"]))
         result["compile_s"][sname] = time.perf_counter() - t0
-        cases = ["clean", "damping", "delay"] if args.quick else list(system["cases"])
+        cases = ["clean", "damping", "delay"] if args.quick else ["clean", *system["hidden"]]
         rows = []
         with tempfile.TemporaryDirectory() as tmp:
             for case in cases:
