@@ -19,7 +19,7 @@ $(PY):
 $(STAMP): pyproject.toml setup.py simgap/identifiers/_call.c | $(PY)
 	$(PY) -m pip install --upgrade pip setuptools wheel
 	$(PY) -m pip install torch==2.13.0
-	$(PY) -m pip install -e ".[dev,rl,highway,ray]"
+	$(PY) -m pip install -e ".[dev,rl,highway,mujoco,ray]"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -68,8 +68,9 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def diagnose(
         recording: Path = typer.Argument(..., help="Recording (.csv or .parquet)."),
-        model: str = typer.Option(..., "--model", help="manipulator2dof, bicycle, or "
-                                  "path/to/model.py:NAME (see examples/README.md)."),
+        model: str = typer.Option(..., "--model", help="manipulator2dof, bicycle, "
+                                  "path/to/model.py:NAME (see examples/README.md), or an "
+                                  "MJCF robot.xml (needs the 'mujoco' extra)."),
         params: Path = typer.Option(None, "--params", help="JSON overrides of nominal "
                                     "parameters, e.g. {\"m\": 2.5}."),
         columns: Path = typer.Option(None, "--columns", help="JSON column map: canonical "
@@ -87,11 +88,16 @@ def register(app: typer.Typer) -> None:
         from simgap.errors import SimgapError
 
         overrides = _load_params(params)
-        if overrides and ":" in model:
+        if overrides and (":" in model or model.lower().endswith(".xml")):
             _fail(f"{params}: --params applies to built-in models only; set the "
                   f"parameters in {model.rsplit(':', 1)[0]}")
         try:
-            report = run(recording, model, overrides, columns=columns)
+            if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
+                from simgap.diagnosis.mujoco import diagnose_mjcf
+
+                report = diagnose_mjcf(model, recording, columns=columns)
+            else:
+                report = run(recording, model, overrides, columns=columns)
         except SimgapError as err:
             _fail(str(err))
         target = out or default_out_dir(recording)
@@ -101,6 +107,10 @@ def register(app: typer.Typer) -> None:
             _fail(f"{target}: cannot write the report ({err.strerror or err})")
         for line in summary_lines(report.data):
             typer.echo(line)
+        if "mjcf" in report.data:
+            for line in report.data["mjcf"]["changes"]:
+                typer.echo(f"MJCF: {line}")
+            typer.echo(f"corrected MJCF: {target / 'augmented_model.xml'}")
         typer.echo(f"report: {target / 'report.md'}")
 
     @app.command()

@@ -233,6 +233,8 @@ def write_report(report, out_dir: str | os.PathLike, figures: bool = True) -> Pa
                                          encoding="utf-8")
         (tmp / "report.md").write_text(markdown(report.data), encoding="utf-8")
         save_model(report.augmented, tmp / "augmented_model.json")  # every model has one
+        if getattr(report, "mjcf_text", None):  # an MJCF nominal: the corrected MJCF
+            (tmp / "augmented_model.xml").write_text(report.mjcf_text, encoding="utf-8")
         if figures:
             _fig_residual_time(report, tmp / "residual_time.png")
             _fig_residual_vs(report, tmp / "residual_vs_variable.png")

@@ -43,6 +43,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from simgap.errors import SimgapError
 from simgap.identifiers import Identifier, IdentifierConfig, IdentifierError, make_identifier
 from simgap.identifiers.config import check_kind, preset
 from simgap.models.base import NominalModel
@@ -58,9 +59,21 @@ def _vec(a: Any) -> np.ndarray:
     return np.asarray(a, dtype=np.float64).reshape(-1)
 
 
+def _is_mujoco_env(env: gym.Env | Any) -> bool:
+    base = getattr(env, "unwrapped", env)
+    return type(getattr(base, "model", None)).__name__ == "MjModel" and hasattr(base, "data")
+
+
 def nominal_model_of(env: gym.Env | Any) -> NominalModel:
     """``env.unwrapped.nominal_model``, checked against the protocol (clear error otherwise)."""
     model = getattr(getattr(env, "unwrapped", env), "nominal_model", None)
+    if model is None and _is_mujoco_env(env):  # Gymnasium's MuJoCo envs (model + data)
+        from simgap.models.mujoco import from_mujoco_env
+
+        try:
+            model = from_mujoco_env(env)
+        except SimgapError as err:
+            raise IdentifierError(str(err)) from None
     if model is None:
         raise IdentifierError(f"{type(getattr(env, 'unwrapped', env)).__name__} has no "
                               f"'nominal_model' attribute; see simgap.models.base.NominalModel")
