@@ -25,12 +25,16 @@ The fitted effects are written back as a corrected MJCF by
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from simgap.diagnosis.effects import PAYLOAD, Effect
+from simgap.diagnosis.forms import EffectContext
 from simgap.diagnosis.systems import ModelMechanicalSystem, _held
 from simgap.diagnosis.user_models import column_map_of, with_columns
 from simgap.errors import CustomModelError
@@ -41,11 +45,26 @@ from simgap.recordings import Column, ColumnMap, RecordingSchema, _read_table, r
 MAX_DELAY = 0.1
 
 
-def _input_delay(lin, nl, sig, j, sys):
+@dataclass(frozen=True, kw_only=True)
+class MujocoEffectContext(EffectContext):
+    """The mechanical context plus what the MJCF-only effects read.
+
+    Attributes:
+        t: the uniform time grid (s).
+        held_input: the logged joint efforts as held between samples (N·m or N), (N, n).
+        payload_at: ``(point, sig) -> joint efforts per kg`` at a tip point (N·m/kg or N/kg).
+    """
+
+    t: np.ndarray
+    held_input: np.ndarray
+    payload_at: Callable[[tuple, Mapping[str, np.ndarray]], np.ndarray]
+
+
+def _input_delay(lin, nl, sig, j, ctx):
     """Effort change (N·m or N) from the logged input acting ``nl[0]`` seconds late."""
-    u = sys.held_input[:, j]
-    late = np.interp(sys.t - nl[0], sys.t, u)
-    out = np.zeros((len(sig["idx"]), sys.n_channels))
+    u = ctx.held_input[:, j]
+    late = np.interp(ctx.t - nl[0], ctx.t, u)
+    out = np.zeros((len(sig["idx"]), ctx.n_channels))
     out[:, j] = (u - late)[sig["idx"]]
     return out
 
@@ -58,8 +77,8 @@ INPUT_DELAY = Effect(name="input_delay", label="actuator delay", scope="joint", 
 def _payload_at(point: tuple[str, int, np.ndarray]) -> Effect:
     name, body, pos = point
 
-    def fn(lin, nl, sig, j, sys):
-        return lin[0] * sys.payload_regressor_at(point, sig)
+    def fn(lin, nl, sig, j, ctx):
+        return lin[0] * ctx.payload_at(point, sig)
 
     return Effect(name="payload_mass", label=f"payload mass at {name}", scope="arm",
                   lin=PAYLOAD.lin, lin_units=PAYLOAD.lin_units, lin_lower=PAYLOAD.lin_lower,
@@ -91,6 +110,13 @@ class MujocoSystem(ModelMechanicalSystem):
         self.held_input = _held(self._u_hold, self.columns.input_hold)
         self._payload_cache.clear()
         return res
+
+    def context(self, terms: Sequence[tuple] = ()) -> MujocoEffectContext:
+        """The mechanical context with the time grid, held input and tip-point regressor."""
+        base = super().context(terms)
+        fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+        return MujocoEffectContext(**fields, t=self.t, held_input=self.held_input,
+                                   payload_at=self.payload_regressor_at)
 
     def payload_regressor_at(self, point, sig) -> np.ndarray:
         """Joint efforts per kg at ``point`` for the rows of ``sig`` (cached on the grid)."""
