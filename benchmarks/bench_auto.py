@@ -108,20 +108,20 @@ def case_runs(name: str, kinds: tuple[str, ...], seed: int, quick: bool) -> dict
 
 
 def main() -> None:
-    import torch  # noqa: F401 - not used; keeps the thread setting uniform with other benches
-
-    torch.set_num_threads(1)
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="short runs (CI)")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--cases", nargs="*", default=["1", "2-2", "2-1"])
+    ap.add_argument("--pendulum-steps", type=int, default=None,
+                    help="Pendulum-v1 steps (default 10,000; 2,000 with --quick)")
+    ap.add_argument("--out", type=Path, default=None, help="JSON path (default: results/)")
     args = ap.parse_args()
     from simgap.identifiers import KINDS
 
     t0 = time.time()
     load = os.getloadavg()
     rows: list[dict] = []
-    n_pend = 2000 if args.quick else PENDULUM_STEPS
+    n_pend = args.pendulum_steps or (2000 if args.quick else PENDULUM_STEPS)
     pend_traces: dict = {}
     for seed in args.seeds:
         obs_only = pendulum_run("instantaneous", seed, n_pend, frozen=True)
@@ -146,14 +146,16 @@ def main() -> None:
     OUT.mkdir(exist_ok=True)
     stem = "auto_bar_quick" if args.quick else "auto_bar"
     doc = {"benchmark": "bench_auto", "quick": args.quick, "seeds": args.seeds,
+           "pendulum_steps": n_pend,
            "loadavg_start": load, "loadavg_end": os.getloadavg(),
            "seconds": time.time() - t0,
            "thresholds": {"last_part": LAST_PART_MAX, "consistency": CONSISTENCY_MAX,
                           "pendulum": {"max_abs_g_hat": 100, "median_x_tilde_tail": 0.08,
                                        "vs_observer_only": 0.5}},
            "rows": rows}
-    (OUT / f"{stem}.json").write_text(json.dumps(doc, indent=1))
-    _plot(pend_traces, OUT / f"{stem}_pendulum.png")
+    out = args.out or OUT / f"{stem}.json"
+    out.write_text(json.dumps(doc, indent=1))
+    _plot(pend_traces, out.with_name(out.stem + "_pendulum.png"))
     for r in rows:
         _log(json.dumps({k: v for k, v in r.items() if k != "diverged"} | {
             "diverged": bool(r.get("diverged"))}))
