@@ -63,3 +63,19 @@ def test_bench_sweeps_quick():
     assert all(res["identical_to_serial"].values())
     for run in res["runs"].values():
         assert run["wall_s"] > 0 and run["failed"] == 0
+
+
+def test_bench_auto_quick(tmp_path):
+    """The bar benchmark of the auto preset runs (tiny: 300 Pendulum-v1 steps, no case)."""
+    out = tmp_path / "bar.json"
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_auto.py"),
+                           "--seeds", "0", "--cases", "--pendulum-steps", "300", "--out",
+                           str(out)], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    doc = json.loads(out.read_text())
+    rows = [r for r in doc["rows"] if r["scenario"] == "Pendulum-v1"]
+    assert sorted(r["kind"] for r in rows) == ["instantaneous", "integral", "minibatch"]
+    for r in rows:
+        assert r["diverged"] is None and 0 < r["max_abs_g_hat"] < 100
+        assert isinstance(r["met"], bool)
+    assert (tmp_path / "bar_pendulum.png").stat().st_size > 0

@@ -44,13 +44,13 @@ import numpy as np
 
 from simgap.evaluation.errors import EvaluationError
 from simgap.evaluation.metrics import Channels
+from simgap.identifiers.config import TABLE_ORDER
+from simgap.identifiers.laws import LAWS
 
 #: Method order and names used in every table (thesis Table 4.1).
-METHODS: tuple[str, ...] = ("instantaneous", "minibatch", "integral")
-METHOD_LABELS: dict[str, str] = {"instantaneous": "Baseline 1 (instantaneous)",
-                                 "minibatch": "Baseline 2 (mini-batch)",
-                                 "integral": "Proposed (integral)"}
-METHOD_SHORT: dict[str, str] = {"instantaneous": "B1", "minibatch": "B2", "integral": "Proposed"}
+METHODS: tuple[str, ...] = TABLE_ORDER
+METHOD_LABELS: dict[str, str] = {k: LAWS[k].label for k in METHODS}
+METHOD_SHORT: dict[str, str] = {k: LAWS[k].short for k in METHODS}
 
 #: Tire relaxation length of Cases 2-x (m), both axles: a typical passenger-car value
 #: (about one wheel radius to 1 m); at vx = 20 m/s the force lags the slip by σ/vx = 30 ms.

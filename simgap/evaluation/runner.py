@@ -102,7 +102,8 @@ def record_case(case: Case, *, quick: bool = False, seed: int = 0,
 
 def run_case(case: Case, *, quick: bool = False, seed: int = 0,
              methods: tuple[str, ...] = METHODS, progress: Progress | None = None,
-             transitions: tuple[Transitions, str] | None = None) -> CaseResult:
+             transitions: tuple[Transitions, str] | None = None,
+             preset_name: str | None = None) -> CaseResult:
     """Run the reproducibility test of every method on ``case``.
 
     Args:
@@ -112,6 +113,8 @@ def run_case(case: Case, *, quick: bool = False, seed: int = 0,
         methods: identifier kinds to run.
         progress: callback ``progress(task, done, total)``.
         transitions: a recording from :func:`record_case` to reuse (else recorded here).
+        preset_name: identifier preset (``"auto"`` or a thesis system); ``None`` = the
+            case's thesis preset (``case.system``), as ``simgap reproduce`` uses.
 
     Returns:
         The :class:`CaseResult`.
@@ -131,7 +134,7 @@ def run_case(case: Case, *, quick: bool = False, seed: int = 0,
     diverged: dict[str, str] = {}
     configs: dict[str, dict[str, Any]] = {}
     for kind in methods:
-        cfg = preset(case.system, kind)
+        cfg = preset(preset_name or case.system, kind, dt=tr.dt)
         configs[kind] = cfg.to_dict()
         ident = make_identifier(kind, tr.n_states, tr.n_inputs, tr.dt, config=cfg, seed=seed)
         cb = None

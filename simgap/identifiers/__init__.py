@@ -28,9 +28,13 @@ Public API
     The same ``seed`` (and network sizes and init scales) gives bit-identical initial
     weights for all three kinds.
 
-``preset(system, kind) -> IdentifierConfig``
-    ``system`` is ``"manipulator"`` (Table 4.3) or ``"bicycle"`` (Table 4.4, network (4, 20, 2)
-    per the errata).
+``preset(system, kind, *, dt=None) -> IdentifierConfig``
+    ``system`` is ``"auto"`` (scale-free, for any env, needs ``dt``: bound-normalised
+    gradients, a_d = −min(0.25/Δt, 20 s⁻¹), one adaptation bandwidth |a_d|/4 for every law;
+    derivation in :func:`~simgap.identifiers.config.auto_preset`; the default of the
+    wrappers), or the thesis reproduction presets ``"manipulator"`` (Table 4.3) and
+    ``"bicycle"`` (Table 4.4, network (4, 20, 2) per the errata). The kinds, their kernel
+    codes and table order come from one table, :data:`~simgap.identifiers.laws.LAWS`.
 
 :class:`Identifier` (attributes are NumPy arrays; copies are safe to keep):
 

@@ -26,13 +26,17 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from simgap.identifiers.errors import IdentifierError
+from simgap.identifiers.laws import LAWS
 
 Kind = Literal["instantaneous", "integral", "minibatch"]
 System = Literal["manipulator", "bicycle"]
-KINDS: tuple[str, ...] = ("instantaneous", "integral", "minibatch")
+#: The identifier kinds, in kernel-code order (from :data:`~simgap.identifiers.laws.LAWS`).
+KINDS: tuple[str, ...] = tuple(LAWS)
 SYSTEMS: tuple[str, ...] = ("manipulator", "bicycle")
 #: Integer codes of the error signals inside the numba kernels.
-KIND_CODES: dict[str, int] = {"instantaneous": 0, "integral": 1, "minibatch": 2}
+KIND_CODES: dict[str, int] = {k: law.code for k, law in LAWS.items()}
+#: The kinds in the thesis tables' order (baseline 1, baseline 2, proposed).
+TABLE_ORDER: tuple[str, ...] = tuple(sorted(LAWS, key=lambda k: LAWS[k].column))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -53,6 +57,12 @@ class IdentifierConfig:
         batch_size: mini-batch size M of baseline 2.
         update_period: P_upd, steps between baseline-2 SGD updates.
         max_weight_norm: divergence bound on √(‖Ŵ‖_F² + ‖V̂‖_F²) (so on each of them).
+        normalize_gradients: bound-normalised step sizes
+            (:func:`~simgap.identifiers.laws.normalised_rates`, the ``auto`` preset); False
+            = the gradients as printed (every thesis preset).
+        init: ``"uniform"``: V̂_0 uniform in ±v0_scale; ``"lecun"``: V̂_0 uniform in
+            ±√(3/p) (p = n + m inputs: unit variance of V̂_0 x̄ for unit-scale inputs;
+            ``v0_scale`` unused).
     """
 
     n_hidden: int = 20
@@ -68,8 +78,16 @@ class IdentifierConfig:
     batch_size: int = 64
     update_period: int = 10
     max_weight_norm: float = 1e6
+    normalize_gradients: bool = False
+    init: Literal["uniform", "lecun"] = "uniform"
 
     def __post_init__(self) -> None:
+        if self.init not in ("uniform", "lecun"):
+            raise IdentifierError(f"IdentifierConfig.init must be 'uniform' or 'lecun', got "
+                                  f"{self.init!r}")
+        if not isinstance(self.normalize_gradients, bool):
+            raise IdentifierError("IdentifierConfig.normalize_gradients must be a bool, got "
+                                  f"{self.normalize_gradients!r}")
         for name in ("n_hidden", "buffer_size", "batch_size", "update_period"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
@@ -129,21 +147,125 @@ def check_kind(kind: str) -> str:
     return kind
 
 
-def preset(system: System | str, kind: Kind | str) -> IdentifierConfig:
-    """Return the thesis configuration of one method on one system.
+def preset(system: System | str, kind: Kind | str, *, dt: float | None = None
+           ) -> IdentifierConfig:
+    """Return the configuration of one method: ``"auto"`` or a thesis reproduction preset.
 
     Args:
-        system: ``"manipulator"`` (Table 4.3) or ``"bicycle"`` (Table 4.4).
+        system: ``"auto"`` (scale-free, for any env; needs ``dt``, see :func:`auto_preset`),
+            or the thesis reproduction presets ``"manipulator"`` (Table 4.3) and
+            ``"bicycle"`` (Table 4.4).
         kind: ``"instantaneous"`` (baseline 1), ``"minibatch"`` (baseline 2) or
             ``"integral"`` (proposed).
+        dt: sampling period Δt (s); required for ``"auto"``, ignored by the thesis presets.
 
     Returns:
         The frozen :class:`IdentifierConfig`. Fields a method does not use (λ for baseline 1,
         A_d / ρ for baseline 2, the buffer for the observer laws) keep the table's values
         for the other methods and are ignored.
     """
+    if system == "auto":
+        if dt is None:
+            raise IdentifierError('preset("auto", kind) needs the sampling period: '
+                                  'preset("auto", kind, dt=...)')
+        return auto_preset(kind, dt)
     if system not in SYSTEMS:
-        raise IdentifierError(f"unknown preset system {system!r}; expected one of {SYSTEMS}")
+        raise IdentifierError(f"unknown preset system {system!r}; expected 'auto' or one of "
+                              f"{SYSTEMS}")
     check_kind(kind)
     eta1, eta2 = _LEARNING_RATES[system][kind]
     return IdentifierConfig(eta1=eta1, eta2=eta2, **_COMMON[system])
+
+
+#: a_d·Δt of the ``auto`` preset at coarse Δt: the observer's discrete pole 1 + a_d Δt = 0.75.
+AUTO_POLE_STEP = -0.25
+#: Fastest observer of the ``auto`` preset, |a_d| (1/s), reached from Δt ≤ 12.5 ms on.
+AUTO_MAX_OBSERVER_RATE = 20.0
+#: Adaptation bandwidth over observer bandwidth, γ / |a_d|, of the ``auto`` preset.
+AUTO_BANDWIDTH_RATIO = 0.25
+
+
+def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
+    """The scale-free ``auto`` configuration of one kind for sampling period ``dt`` (s).
+
+    Derivation (all rates in 1/s; the step sizes are bound-normalised,
+    :func:`~simgap.identifiers.laws.normalised_rates`, so nothing below depends on the
+    units of the state, the input or the residual):
+
+    * Observer gain: the Euler observer error obeys x̃_{k+1} ≈ (1 + a_d Δt) x̃_k + Δt (g − ĝ)
+      (eq. 3.1, 4.1). Its discrete pole must lie well inside the unit circle, whatever Δt:
+      |a_d| ≤ 0.25 / Δt (pole ≥ 0.75; the thesis' −40 s⁻¹ at 0.05 s is the limit −2 and
+      diverges). At fine Δt a faster observer does not help: the adaptation bandwidth
+      follows it (below), and weights that adapt much faster than the plant moves track
+      g(t) instead of learning g(x, u). Measured on thesis Case 1 (220 s, seed 0): γ =
+      31 s⁻¹ (a_d = −125 at 500 Hz) gives a last-part error of 3 % of |g| but a frozen-model
+      consistency of 0.16 N·m; γ = 5 s⁻¹ gives 6-7 % and 0.068 (baseline 2: 0.025-0.029
+      either way). So a_d = −min(0.25/Δt, 20 s⁻¹): −20 s⁻¹ from Δt ≤ 12.5 ms on (the arm's
+      500 Hz, the bicycle), −5 s⁻¹ at 20 Hz (``Pendulum-v1``). The 20 s⁻¹ is the one time
+      scale assumed: mechanical plants whose residual changes over ≳ 0.2 s.
+    * One adaptation bandwidth for every law, tied to the observer: γ = |a_d| / 4. The
+      weights must move slower than x̃ settles (x̃ ≈ (g − ĝ)/|a_d| is the quasi-static error
+      the laws learn from, eq. 3.5), and a quarter keeps the two loops apart.
+    * Step sizes: with normalised gradients one step moves ĝ by ≤ k_i / c_e of the residual
+      error ε (c_e converts the law's δ into ε). Baseline 1: δ = x̃/a_d ≈ −ε/a_d², c_e = a_d²;
+      η_i = γ c_e gives the rate γ. Integral law: z = x̃/(s + λ) ≈ x̃/λ below λ, so
+      c_e = λ a_d² and η_i = γ λ a_d²: η scales with λ. λ = 4γ = |a_d|: the z filter adds
+      a pole at λ to the adaptation loop, which stays damped only if λ is well above γ.
+      Measured on ``Pendulum-v1`` (g = 9 vs 10, 3000 random-torque steps, median ‖x̃‖ of
+      the last 1000): λ = 2γ 0.107, 4γ 0.053, 8γ 0.046, baseline 1 0.041, observer alone
+      ≈ 0.19; 4γ keeps z's memory (1/λ) as long as the observer's own.
+    * Baseline 2: r_j = Δt(ĝ − g) and δ_j = Δt r_j / M, so c_e = 1/Δt²; one burst every
+      P_upd steps moves ĝ by η Δt² of ε, and η = γ P_upd / Δt matches the observer laws'
+      rate per second (γ P_upd Δt = 5/16 per burst). Buffer 1000 transitions, M = 32,
+      P_upd = 5.
+    * Initialisation: Ŵ_0 = 0 (ĝ ≡ 0 until there is an error: the nominal model as it
+      is, in any units) and LeCun-type V̂_0 uniform in ±√(3/p) (unit variance of V̂ x̄ for
+      inputs of unit scale). No leakage (ρ = 0): it acts in the units of x̃, which is not
+      scale-free; the divergence guard is the weight-norm bound (1e6) and the bounded
+      normalised step.
+
+    Limits: the normalisation is per layer, not per input channel; inputs of very different
+    magnitudes (say an angle in rad next to a speed in mm/s) leave the small ones little
+    influence on the hidden layer, and tanh saturates when an input is ≫ 1 in its units.
+
+    Args:
+        kind: identifier kind.
+        dt: sampling period Δt (s), finite and positive.
+
+    Returns:
+        The frozen :class:`IdentifierConfig` (``normalize_gradients=True``).
+    """
+    check_kind(kind)
+    if isinstance(dt, bool) or not isinstance(dt, int | float) or not math.isfinite(dt) \
+            or dt <= 0:
+        raise IdentifierError(f"auto preset: dt must be a finite positive number of seconds, "
+                              f"got {dt!r}")
+    a_d = -min(-AUTO_POLE_STEP / dt, AUTO_MAX_OBSERVER_RATE)
+    gamma = AUTO_BANDWIDTH_RATIO * abs(a_d)
+    lam = 4.0 * gamma
+    period = 5
+    n_hidden = 20
+    if kind == "minibatch":
+        eta = gamma * period / dt
+    elif kind == "integral":
+        eta = gamma * lam * a_d * a_d
+    else:
+        eta = gamma * a_d * a_d
+    return IdentifierConfig(n_hidden=n_hidden, w0_scale=0.0, v0_scale=0.0, init="lecun", a_d=a_d,
+                            eta1=eta, eta2=eta, rho1=0.0, rho2=0.0, lam=lam,
+                            buffer_size=1000, batch_size=32, update_period=period,
+                            normalize_gradients=True)
+
+
+def error_scale(kind: str, config: IdentifierConfig, dt: float) -> float:
+    """c_e of :func:`~simgap.identifiers.laws.normalised_rates` (0 = plain gradients).
+
+    a_d² (baseline 1), λ a_d² (integral law), 1/Δt² (baseline 2); derivation in
+    :func:`auto_preset`.
+    """
+    if not config.normalize_gradients:
+        return 0.0
+    if kind == "minibatch":
+        return 1.0 / (dt * dt)
+    ce = config.a_d * config.a_d
+    return ce * config.lam if kind == "integral" else ce

@@ -12,10 +12,17 @@ from typing import Any
 import numpy as np
 
 from simgap.identifiers import kernels as K
-from simgap.identifiers.config import KIND_CODES, IdentifierConfig, check_kind, preset
+from simgap.identifiers.config import (
+    KIND_CODES,
+    IdentifierConfig,
+    check_kind,
+    error_scale,
+    preset,
+)
 from simgap.identifiers.errors import IdentifierDivergedError, IdentifierError
 from simgap.identifiers.minibatch import DUE, FILLED
 from simgap.identifiers.network import init_weights
+from simgap.models.base import wrap_angle
 
 #: Observer-law batches from this many rows up run on all of numba's threads (the rows are
 #: independent, so the result is the same bit for bit); smaller ones on the calling thread.
@@ -26,6 +33,17 @@ _ROW0 = np.zeros(1, dtype=np.int64)
 
 #: Format tag written into saved files.
 FORMAT = "simgap-identifier/2"
+
+#: Header slots (``K.HP_*``) filled from :class:`IdentifierConfig` fields, in the order of
+#: the config's fields.
+HEADER_FIELDS: dict[str, int] = {
+    "n_hidden": K.HP_H, "a_d": K.HP_AD, "eta1": K.HP_ETA1, "eta2": K.HP_ETA2,
+    "rho1": K.HP_RHO1, "rho2": K.HP_RHO2, "lam": K.HP_LAM, "update_period": K.HP_PERIOD,
+    "max_weight_norm": K.HP_MAXN}
+#: Every header slot fixed at construction (the config's, Δt, sizes, error-signal code, c_e):
+#: a loaded state must carry exactly these values.
+FIXED_SLOTS: np.ndarray = np.array(sorted(
+    {*HEADER_FIELDS.values(), K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE}), dtype=np.int64)
 
 
 def _check_int(name: str, v: Any) -> int:
@@ -74,19 +92,13 @@ class IdentifierBase:
         scratch = K.scratch_layout.py_func(n, m, h)[-1] if nn == 1 else 0
         self._state = np.zeros((nn, lay["size"] + scratch))
         hp = np.zeros(K.HP_SIZE)
+        for name, slot in HEADER_FIELDS.items():
+            hp[slot] = getattr(config, name)
         hp[K.HP_DT] = dt
-        hp[K.HP_AD] = config.a_d
-        hp[K.HP_ETA1] = config.eta1
-        hp[K.HP_ETA2] = config.eta2
-        hp[K.HP_RHO1] = config.rho1
-        hp[K.HP_RHO2] = config.rho2
-        hp[K.HP_LAM] = config.lam
-        hp[K.HP_MAXN] = config.max_weight_norm
         hp[K.HP_N] = n
         hp[K.HP_M] = m
-        hp[K.HP_H] = h
         hp[K.HP_MODE] = KIND_CODES[kind]
-        hp[K.HP_PERIOD] = config.update_period
+        hp[K.HP_ESCALE] = error_scale(kind, config, dt)
         self._hp = hp
         self._minibatch = kind == "minibatch"
         size = config.buffer_size if self._minibatch else 1
@@ -128,8 +140,10 @@ class IdentifierBase:
         Initial weights from the seed, x̂ uninitialised, z = 0, empty buffer, sampling
         Generator re-seeded, not frozen.
         """
+        v0_scale = (np.sqrt(3.0 / self.n_in) if self.config.init == "lecun"
+                    else self.config.v0_scale)
         w0, v0 = init_weights(self.seed, self.n_states, self.n_hidden, self.n_in,
-                              self.config.w0_scale, self.config.v0_scale)
+                              self.config.w0_scale, v0_scale)
         ow = self._lay["ow"]
         self._state[:] = 0.0
         self._state[:, :K.HP_SIZE] = self._hp
@@ -285,6 +299,16 @@ class IdentifierBase:
         obs[sel, n:2 * n] = 0.0
         obs[sel, 2 * n] = 1.0
 
+    def wrap_observer(self, indices: np.ndarray) -> None:
+        """Map the periodic entries ``indices`` of x̂ (every row) into (−π, π].
+
+        Shifts by whole turns only, so the observer's error on an angle (with the measured
+        angle fed as its representative nearest to x̂, as the wrappers do) is unchanged.
+        Weights, z and the reported results of the last step are not touched.
+        """
+        obs = self._field("observer")
+        obs[:, indices] = wrap_angle(obs[:, indices])
+
     def _predict_row(self, row: int, x_bar: Any) -> np.ndarray:
         xb = np.ascontiguousarray(x_bar, dtype=np.float64)
         single = xb.ndim == 1
@@ -328,7 +352,7 @@ class IdentifierBase:
             if key != "counters" and not np.all(np.isfinite(a)):
                 raise IdentifierError(f"{source}: array {key!r} contains non-finite values")
         hp = np.asarray(arrays["state"])[:, :K.HP_SIZE]
-        fixed = slice(0, K.HP_PERIOD + 1)  # the entries that come from the config
+        fixed = FIXED_SLOTS
         if not np.array_equal(hp[:, fixed], np.broadcast_to(self._hp[fixed], hp[:, fixed].shape)):
             raise IdentifierError(f"{source}: array 'state' holds hyper-parameters that differ "
                                   f"from its config")

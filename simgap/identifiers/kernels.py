@@ -52,6 +52,7 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     dot,
+    normalised_rates,
     observer_delta,
     observer_error,
     scratch_size,
@@ -66,6 +67,9 @@ HP_N, HP_M, HP_H, HP_MODE, HP_PERIOD, HP_ACT, HP_STATUS = 8, 9, 10, 11, 12, 13, 
 HP_NSTEPS, HP_NUPDATES = 15, 16
 #: ‖Ŵ‖_F² and ‖V̂‖_F² (HP_NORM2 + 1), tracked for the divergence bound.
 HP_NORM2 = 17
+#: c_e, the factor that turns the error signal δ into residual units (state units/s) for
+#: bound-normalised gradients; 0 = plain gradients as printed (every thesis preset).
+HP_ESCALE = 19
 HP_SIZE = 20
 
 #: Activity codes (``S[i, HP_ACT]``).
@@ -239,9 +243,15 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
         leak = dt * np.sqrt(dot(T, txt, T, txt, n))
-        if not unified_update(R, ow, n, h, p, T, td, ts, ta, tg, T, txb, dt * R[HP_ETA1],
-                              dt * R[HP_ETA2], leak * R[HP_RHO1], leak * R[HP_RHO2],
-                              R[HP_MAXN], HP_NORM2, tsc):
+        k1 = dt * R[HP_ETA1]
+        k2 = dt * R[HP_ETA2]
+        ce = R[HP_ESCALE]
+        if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
+            k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txb, T, txb, p),
+                                      dot(T, td, T, td, n), R[HP_NORM2], ce)
+        if not unified_update(R, ow, n, h, p, T, td, ts, ta, tg, T, txb, k1, k2,
+                              leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
+                              tsc):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results
     if fresh:
@@ -541,7 +551,7 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
         if cnt[i, FILLED] == 0:
             continue
         ok = sgd_step(R, ow, n, h, p, buf[i], idx[j], R[HP_DT], R[HP_ETA1], R[HP_ETA2],
-                      R[HP_MAXN], HP_NORM2, T, ts, tg, td, tgw, tsc)
+                      R[HP_MAXN], HP_NORM2, T, ts, tg, td, tgw, tsc, R[HP_ESCALE])
         if ok:
             R[HP_NUPDATES] += 1.0
         else:

@@ -23,15 +23,61 @@ identifier; they are inlined into :mod:`simgap.identifiers.kernels`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 from simgap.identifiers.network import mat_t_vec
 
-#: Error-signal codes (``IdentifierConfig`` kinds → kernel codes).
-INSTANTANEOUS = 0
-INTEGRAL = 1
-MINIBATCH = 2
+
+@dataclass(frozen=True, kw_only=True)
+class Law:
+    """Declaration of one error signal (one identifier kind).
+
+    Attributes:
+        code: integer code of the error signal inside the numba kernels (``HP_MODE``).
+        uses_observer: True if the law runs the observer x̂ (eq. 3.1) and learns per step.
+        uses_buffer: True if the law keeps a sliding-window buffer (baseline 2).
+        hyper: the :class:`~simgap.identifiers.IdentifierConfig` fields only this law (or
+            this family of laws) reads, besides the shared network sizes, η1, η2 and the
+            divergence bound.
+        column: position in the thesis' tables (Table 4.1: baseline 1, baseline 2,
+            proposed), the order every evaluation table uses.
+        label: the name in tables and figures.
+        short: the short name in table headers.
+        equation: the thesis equations that define the error signal.
+    """
+
+    code: int
+    uses_observer: bool
+    uses_buffer: bool
+    hyper: tuple[str, ...]
+    column: int
+    label: str
+    short: str
+    equation: str
+
+
+#: The one table of error signals: kind name → :class:`Law` (in kernel-code order). Every
+#: other list of kinds (``KINDS``, ``KIND_CODES``, the evaluation tables' ``METHODS``) is
+#: derived from it.
+LAWS: dict[str, Law] = {
+    "instantaneous": Law(code=0, uses_observer=True, uses_buffer=False,
+                         hyper=("a_d", "rho1", "rho2"), column=0,
+                         label="Baseline 1 (instantaneous)", short="B1", equation="3.8"),
+    "integral": Law(code=1, uses_observer=True, uses_buffer=False,
+                    hyper=("a_d", "rho1", "rho2", "lam"), column=2,
+                    label="Proposed (integral)", short="Proposed", equation="3.9, 4.6"),
+    "minibatch": Law(code=2, uses_observer=False, uses_buffer=True,
+                     hyper=("buffer_size", "batch_size", "update_period"), column=1,
+                     label="Baseline 2 (mini-batch)", short="B2", equation="4.2-4.4"),
+}
+
+#: Error-signal codes as compile-time constants of the kernels.
+INSTANTANEOUS = LAWS["instantaneous"].code
+INTEGRAL = LAWS["integral"].code
+MINIBATCH = LAWS["minibatch"].code
 
 
 @njit(cache=True, inline="always")
@@ -86,6 +132,34 @@ def dot(a, oa, b, ob, k):  # pragma: no cover - compiled
     for i in range(k):
         acc += a[_ix(oa + i)] * b[_ix(ob + i)]
     return acc
+
+
+@njit(cache=True, inline="always")
+def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
+    """Bound-normalised step sizes of the unified law (the ``auto`` preset).
+
+        k1' = k1 / (1 + ‖σ‖²),    k2' = k2 / (‖x̄‖² (‖Ŵ‖_F² + c_e² ‖δ‖²))
+
+    Why: one Ŵ step moves ĝ by −k1' ‖σ‖² δ and one V̂ step by −k2' Ŵ D² Ŵᵀ δ ‖x̄‖²
+    (D = I − Λ). With δ = ε / c_e, ε the residual error in state units/s (c_e = a_d² for
+    baseline 1, λ a_d² for the integral law, 1/Δt² for baseline 2), both moves are then at
+    most k_i / c_e of ε per step, whatever the scales of x̄ (input units) and ĝ (state
+    units/s): the normalised LMS step in each layer. ‖Ŵ‖² + c_e²‖δ‖² > 0 whenever there is
+    an error to learn from, so the V̂ step stays bounded while Ŵ is still ≈ 0. Returns
+    (k1', k2'); k2' = 0 when x̄ = 0 and δ = 0 (nothing to learn).
+
+    Args:
+        k1: plain step size of Ŵ (Δt η1 for the observer laws, η1 for baseline 2).
+        k2: plain step size of V̂ (Δt η2, η2).
+        ss: ‖σ‖².
+        xx: ‖x̄‖².
+        dd: ‖δ‖².
+        ww: ‖Ŵ‖_F².
+        ce: c_e (> 0).
+    """
+    den = xx * (ww + ce * ce * dd)
+    k2n = k2 / den if den > 0.0 else 0.0
+    return k1 / (1.0 + ss), k2n
 
 
 @njit(cache=True, inline="always")

@@ -22,7 +22,7 @@ from __future__ import annotations
 from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
-from simgap.identifiers.laws import apply_gradients, backprop
+from simgap.identifiers.laws import apply_gradients, backprop, dot, normalised_rates
 from simgap.identifiers.network import forward
 
 #: Columns of the per-identifier counters array.
@@ -55,22 +55,34 @@ def buffer_push(buf, cnt, R, oxb, x, f, x_next, io, dt, p, n, period):  # pragma
 
 @njit(cache=True, inline="always")
 def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, og, od, ogw,
-             osc):  # pragma: no cover - compiled
+             osc, ce):  # pragma: no cover - compiled
     """Take one SGD step of eq. 4.4 on the mini-batch ``idx`` of ``buf``.
 
     Weights at ``R[ow:]``, their squared norms at ``R[onorm:onorm + 2]``. The gradient is
     accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with the weights held fixed, then applied
-    once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. Returns True if
-    the new weights were kept.
+    once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. With ``ce`` > 0
+    the step sizes are bound-normalised (:func:`~simgap.identifiers.laws.normalised_rates`)
+    with the batch means of ‖σ‖², ‖x̄‖² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
+    c_e M δ_j is sample j's residual error with c_e = 1/Δt²). Returns True if the new
+    weights were kept.
     """
     m = idx.shape[0]
     for k in range(n * h + h * p):
         T[_ix(ogw + k)] = 0.0
     scale = dt / m
+    ss = 0.0
+    xx = 0.0
+    dd = 0.0
     for j in range(m):
         row = buf[idx[j]]
         forward(R, ow, n, h, p, row, 0, T, os, T, og)
         for r in range(n):
             T[_ix(od + r)] = scale * (row[_ix(p + r)] + dt * T[_ix(og + r)])
+        if ce > 0.0:
+            ss += dot(T, os, T, os, h)
+            xx += dot(row, 0, row, 0, p)
+            dd += dot(T, od, T, od, n)
         backprop(R, ow, n, h, p, T, od, os, row, 0, ogw, osc)
+    if ce > 0.0:
+        eta1, eta2 = normalised_rates(eta1, eta2, ss / m, xx / m, dd * m, R[onorm], ce)
     return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, onorm, osc)

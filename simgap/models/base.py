@@ -14,6 +14,9 @@ user's own env works as soon as it provides one. The contract, in words:
 Optional, with defaults in :class:`BaseNominalModel`:
 
 * ``input(action)``: maps an env action to the input u (default: identity).
+* ``periodic_states``: indices of the state entries that are angles, read modulo 2π and
+  kept in (−π, π] (default: none). The identifier's observer error on them is wrapped
+  (:func:`wrap_angle`), not the raw difference: π − ε against −π + ε is an error of 2ε.
 * ``residual_names`` / ``residual_units`` / ``physical_residual(x, g)``: express a state
   residual g (state units per second) as physical quantities, e.g. joint torques (N·m) or
   axle lateral forces (N). Default: g itself, named ``g_<state>``.
@@ -70,6 +73,8 @@ class BaseNominalModel:
     input_names: tuple[str, ...] = ()
     input_units: tuple[str, ...] = ()
     dt: float = 0.01
+    #: Indices of angle states, wrapped to (−π, π] (see the module docstring).
+    periodic_states: tuple[int, ...] = ()
 
     @property
     def n_states(self) -> int:
@@ -126,6 +131,11 @@ class MechanicalNominalModel(BaseNominalModel):
     def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
         """Torque the nominal model needs for the given motion: M(q) ddq + bias(q, dq)."""
         return self.M(q) @ ddq + self.bias(q, dq)
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
+    """Angle(s) ``a`` (rad) mapped to (−π, π]: a − 2π k for the one integer k that fits."""
+    return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
 
 
 def validate_positive(name: str, value: object, unit: str = "", *,

@@ -46,7 +46,7 @@ import numpy as np
 from simgap.errors import SimgapError
 from simgap.identifiers import Identifier, IdentifierConfig, IdentifierError, make_identifier
 from simgap.identifiers.config import check_kind, preset
-from simgap.models.base import NominalModel
+from simgap.models.base import NominalModel, wrap_angle
 
 #: Map from ``NominalModel.name`` to the thesis preset used when ``config`` is None.
 PRESET_FOR_MODEL = {"manipulator2dof": "manipulator", "bicycle": "bicycle"}
@@ -102,8 +102,38 @@ def build_identifier(model: NominalModel, identifier: str | Identifier,
                               f"{identifier!r}")
     kind = check_kind(identifier)
     if config is None:
-        config = preset(PRESET_FOR_MODEL.get(getattr(model, "name", ""), "manipulator"), kind)
+        config = preset("auto", kind, dt=model.dt)
     return make_identifier(kind, n, m, model.dt, config=config, seed=seed)
+
+
+def periodic_indices(model: NominalModel) -> np.ndarray:
+    """``model.periodic_states`` (default none) as checked int indices into the state."""
+    per = tuple(getattr(model, "periodic_states", ()) or ())
+    n = len(model.state_names)
+    for i in per:
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < n:
+            raise IdentifierError(f"nominal model's periodic_states {per!r}: each entry must "
+                                  f"be a state index in [0, {n})")
+    return np.asarray(sorted(set(per)), dtype=np.int64)
+
+
+def unwrap_pair(ident: Identifier, per: np.ndarray, x: np.ndarray, x_next: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """x_k, x_{k+1} with their angles ``per`` moved by whole turns next to the reference.
+
+    The reference is x̂_k for the observer laws (once initialised), else x_k itself:
+    x_k[i] → ref[i] + wrap(x_k[i] − ref[i]), x_{k+1}[i] → x_k[i] + wrap(x_{k+1}[i] − x_k[i])
+    (the new x_k). The identifier then sees a continuous angle and its error x − x̂ is the
+    wrapped error.
+    """
+    x = x.copy()
+    x_next = x_next.copy()
+    step = wrap_angle(x_next[per] - x[per])
+    if ident.kind != "minibatch" and ident.observer_initialised:
+        ref = ident._field("observer")[0, per]
+        x[per] = ref + wrap_angle(x[per] - ref)
+    x_next[per] = x[per] + step
+    return x, x_next
 
 
 def action_to_input(model: NominalModel, space: gym.Space | None, action: Any) -> np.ndarray:
@@ -124,8 +154,9 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``"minibatch"``, or a ready :class:`~simgap.identifiers.Identifier` (its sizes and
             dt must match the model).
         frozen: start frozen (weights held; x̂ runs).
-        config: identifier config; ``None`` = the thesis preset for the model (Table 4.3 for
-            ``manipulator2dof``, Table 4.4 for ``bicycle``, Table 4.3 otherwise).
+        config: identifier config; ``None`` = ``preset("auto", kind, dt=model.dt)``, the
+            scale-free preset for any env. The thesis presets reproduce the thesis:
+            ``config=preset("manipulator", kind)`` (Table 4.3), ``preset("bicycle", kind)``.
         seed: seed of the identifier's initial weights.
         reset_identifier_on_seed: see the module docstring.
     """
@@ -151,6 +182,7 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self._low = np.asarray(space.low, dtype=np.float64) if self._box else None
         self._high = np.asarray(space.high, dtype=np.float64) if self._box else None
         self._x: np.ndarray | None = None
+        self._periodic = periodic_indices(self.nominal_model)
 
     # ------------------------------------------------------------------ control
     def freeze(self) -> None:
@@ -205,17 +237,30 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
                 a = action
         u = _vec(a if self._to_input is None else self._to_input(a))
         x_next = _vec(model.state(obs))
-        f = _vec(model.f(x, u))
         ident = self.identifier
+        per = self._periodic
+        x_new = x_next
+        if per.size:  # feed the angles as the representatives nearest to the observer's
+            x, x_next = unwrap_pair(ident, per, x, x_next)
+        f = _vec(model.f(x, u))
         g = ident.step(x, u, f, x_next)
         info["residual_estimate"] = g
-        info["state_estimate"] = ident.x_hat
-        info["estimation_error"] = ident.x_tilde
+        if per.size:
+            ident.wrap_observer(per)
+            x_tilde = ident.x_tilde
+            x_tilde[per] = wrap_angle(x_tilde[per])
+            x_hat = ident.x_hat
+            x_hat[per] = wrap_angle(x_hat[per])
+            info["state_estimate"] = x_hat
+            info["estimation_error"] = x_tilde
+        else:
+            info["state_estimate"] = ident.x_hat
+            info["estimation_error"] = ident.x_tilde
         info["identifier_frozen"] = ident.frozen
         if self._physical is not None:
             phys = np.asarray(self._physical(x, g), dtype=np.float64)
             info["physical_residual_estimate"] = phys
             if self._is_bicycle:
                 info["axle_force_residual_estimate"] = phys.copy()
-        self._x = x_next
+        self._x = x_new
         return obs, reward, terminated, truncated, info

@@ -33,7 +33,7 @@ from gymnasium.vector import AutoresetMode
 from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
 from simgap.identifiers.config import check_kind, preset
 from simgap.models.base import NominalModel
-from simgap.wrappers.identifier_wrapper import PRESET_FOR_MODEL, action_to_input
+from simgap.wrappers.identifier_wrapper import action_to_input
 
 
 class VectorIdentifierWrapper(gym.vector.VectorWrapper):
@@ -43,7 +43,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         env: the vector env.
         identifier: ``"integral"`` (default), ``"instantaneous"`` or ``"minibatch"``.
         frozen: start frozen.
-        config: identifier config (default: the thesis preset for the model).
+        config: identifier config (default: ``preset("auto", kind, dt=model.dt)``).
         seed: seed of the (shared) initial weights.
         reset_identifier_on_seed: a seeded reset restores the reset point (default True).
         threads: passed to :class:`~simgap.identifiers.BatchIdentifier` (``None``: numba's
@@ -67,7 +67,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         self.nominal_models = models
         kind = check_kind(identifier)
         if config is None:
-            config = preset(PRESET_FOR_MODEL.get(getattr(m0, "name", ""), "manipulator"), kind)
+            config = preset("auto", kind, dt=m0.dt)
         self.identifier = BatchIdentifier(kind, env.num_envs, n, m, m0.dt, config=config,
                                           seed=seed, threads=threads)
         if frozen:

@@ -61,7 +61,8 @@ def test_freeze_and_learning_across_resets():
     env = IdentifierWrapper(DampedPendulumEnv(max_steps=50), "integral")
     _rollout(env, 120)  # crosses two ordinary resets
     w_learned = env.identifier.W
-    assert not np.array_equal(w_learned, make_identifier("integral", 2, 1, 0.01).W)
+    fresh = make_identifier("integral", 2, 1, 0.01, config=preset("auto", "integral", dt=0.01))
+    assert not np.array_equal(w_learned, fresh.W)
     env.reset()  # ordinary reset keeps the weights
     np.testing.assert_array_equal(env.identifier.W, w_learned)
     env.freeze()
@@ -70,7 +71,7 @@ def test_freeze_and_learning_across_resets():
     np.testing.assert_array_equal(env.identifier.W, w_learned)
     env.unfreeze()
     env.reset(seed=3)  # seeded: back to the reset point (construction)
-    np.testing.assert_array_equal(env.identifier.W, make_identifier("integral", 2, 1, 0.01).W)
+    np.testing.assert_array_equal(env.identifier.W, fresh.W)
 
 
 def test_seeded_resets_reproduce_runs():
@@ -115,7 +116,7 @@ def test_simgap_envs_wrapped_pass_sb3_check_env(env_id):
 def test_bicycle_axle_force_estimates_and_manipulator_torques():
     env = IdentifierWrapper(gym.make("simgap/BicycleTire-v0"), "integral")
     model = env.unwrapped.nominal_model
-    assert env.identifier.config == preset("bicycle", "integral")
+    assert env.identifier.config == preset("auto", "integral", dt=model.dt)  # the default
     env.reset(seed=0)
     info = env.step(env.action_space.sample())[4]
     np.testing.assert_allclose(info["axle_force_residual_estimate"],
@@ -123,7 +124,7 @@ def test_bicycle_axle_force_estimates_and_manipulator_torques():
     np.testing.assert_array_equal(info["axle_force_residual_estimate"],
                                   info["physical_residual_estimate"])
     env = IdentifierWrapper(gym.make("simgap/ManipulatorFriction-v0"), "integral")
-    assert env.identifier.config == preset("manipulator", "integral")
+    assert env.identifier.config == preset("auto", "integral", dt=0.002)
     env.reset(seed=0)
     info = env.step(env.action_space.sample())[4]
     np.testing.assert_array_equal(info["physical_residual_estimate"],
