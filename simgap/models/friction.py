@@ -18,6 +18,7 @@ from numba import njit
 
 #: Layout of one joint's row in the friction array passed to compiled kernels.
 FRICTION_FIELDS = ("fc", "sigma", "b", "fs", "vs")
+FC, SIGMA, B, FS, VS = (FRICTION_FIELDS.index(n) for n in ("fc", "sigma", "b", "fs", "vs"))
 
 
 @njit(cache=True)
@@ -55,7 +56,7 @@ def friction_torque(dq, fa):  # pragma: no cover - compiled
     """Total friction torque per joint (N·m) for velocities ``dq`` and rows ``fa`` (n×5)."""
     out = np.empty(dq.shape[0])
     for i in range(dq.shape[0]):
-        out[i] = joint_friction(dq[i], fa[i, 0], fa[i, 1], fa[i, 2], fa[i, 3], fa[i, 4])
+        out[i] = joint_friction(dq[i], fa[i, FC], fa[i, SIGMA], fa[i, B], fa[i, FS], fa[i, VS])
     return out
 
 
@@ -103,9 +104,11 @@ class FrictionParams:
         """Kernel array, shape (2, 5), columns :data:`FRICTION_FIELDS`."""
         fc = _pair("fc", self.fc, positive=False)
         fs = fc if self.fs is None else _pair("fs", self.fs, positive=False)
-        cols = [fc, _pair("sigma", self.sigma, positive=True), _pair("b", self.b, positive=False),
-                fs, _pair("vs", self.vs, positive=True)]
-        return np.ascontiguousarray(np.array(cols, dtype=np.float64).T)
+        cols = {"fc": fc, "sigma": _pair("sigma", self.sigma, positive=True),
+                "b": _pair("b", self.b, positive=False), "fs": fs,
+                "vs": _pair("vs", self.vs, positive=True)}
+        return np.ascontiguousarray(np.array([cols[n] for n in FRICTION_FIELDS],
+                                             dtype=np.float64).T)
 
     def torque(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque (N·m) for joint velocities ``dq`` (rad/s), shape (2,)."""
