@@ -322,9 +322,15 @@ def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float 
 
 
 def generate(model: str, effects: Sequence[InjectedEffect] = (), **kwargs) -> Recording:
-    """Dispatch to :func:`generate_manipulator` or :func:`generate_bicycle` by model name."""
-    if model == "manipulator2dof":
-        return generate_manipulator(effects, **kwargs)
-    if model == "bicycle":
-        return generate_bicycle(effects, **kwargs)
-    raise GeneratorError(f"unknown model {model!r}; use manipulator2dof or bicycle")
+    """Dispatch to the registered system's generator (:data:`simgap.systems.SYSTEMS`).
+
+    Raises:
+        GeneratorError: the system is unknown (the message lists the registered ones) or
+            has no generator.
+    """
+    from simgap.systems import get_system
+
+    spec = get_system(model, GeneratorError)
+    if spec.generator is None:
+        raise GeneratorError(f"system {model!r} has no concealed-effect generator")
+    return spec.resolve("generator")(effects, **kwargs)

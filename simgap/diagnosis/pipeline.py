@@ -48,9 +48,10 @@ from simgap.diagnosis.fit import Fitter, Selection, Term
 from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
 from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
-from simgap.models.bicycle import BicycleNominal, BicycleParams
-from simgap.models.manipulator import ManipulatorNominal, ManipulatorParams
+from simgap.models.bicycle import BicycleNominal
+from simgap.models.manipulator import ManipulatorNominal
 from simgap.recordings import Recording, RecordingError, read_recording, recording_from_arrays
+from simgap.systems import get_system
 
 MODELS = ("manipulator2dof", "bicycle")
 
@@ -116,12 +117,11 @@ def _apply_overrides(cls: type, overrides: Mapping[str, Any] | None, model: str)
 def make_system(model: str | Any, params: Mapping[str, Any] | None = None) -> Any:
     """Adapter for a model name, a nominal-model object or an adapter (returned as is)."""
     if isinstance(model, str):
-        if model == "manipulator2dof":
-            return MechanicalSystem(ManipulatorNominal(
-                _apply_overrides(ManipulatorParams, params, model)), name=model)
-        if model == "bicycle":
-            return BicycleSystem(BicycleNominal(_apply_overrides(BicycleParams, params, model)))
-        raise DiagnosisError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+        spec = get_system(model, DiagnosisError)
+        if spec.residual_form is None or spec.nominal is None or spec.params_cls is None:
+            raise DiagnosisError(f"system {model!r} has no diagnosis adapter")
+        return spec.resolve("residual_form")(
+            spec.nominal(_apply_overrides(spec.params_cls, params, model), None))
     if params:
         raise DiagnosisError("parameter overrides apply to built-in model names only")
     if isinstance(model, BicycleNominal):

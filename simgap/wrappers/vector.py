@@ -33,7 +33,8 @@ from gymnasium.vector import AutoresetMode
 from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
 from simgap.identifiers.config import check_kind, preset
 from simgap.models.base import NominalModel
-from simgap.wrappers.identifier_wrapper import PRESET_FOR_MODEL, action_to_input
+from simgap.systems import identifier_preset_of
+from simgap.wrappers.identifier_wrapper import action_to_input
 
 
 class VectorIdentifierWrapper(gym.vector.VectorWrapper):
@@ -67,7 +68,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         self.nominal_models = models
         kind = check_kind(identifier)
         if config is None:
-            config = preset(PRESET_FOR_MODEL.get(getattr(m0, "name", ""), "manipulator"), kind)
+            config = preset(identifier_preset_of(m0), kind)
         self.identifier = BatchIdentifier(kind, env.num_envs, n, m, m0.dt, config=config,
                                           seed=seed, threads=threads)
         if frozen:
