@@ -216,7 +216,7 @@ def _tau_d_joint(i, qi, dqi, theta):  # pragma: no cover - compiled
     f = FRICTION + FRICTION_STRIDE * i
     d = DISTURBANCE + DISTURBANCE_STRIDE * i
     return joint_friction(dqi, theta[f + fr.FC], theta[f + fr.SIGMA], theta[f + fr.B],
-                          theta[f + fr.FS], theta[f + fr.VS]) \
+                          theta[f + fr.FS], theta[f + fr.VS], theta[f + fr.C2]) \
         + theta[d + TAU0] + theta[d + K] * (qi - theta[d + Q0])
 
 
@@ -430,6 +430,7 @@ _NONNEG = (0.0, math.inf)
 def _start(plant: Plant) -> dict:
     p = plant.params
     return {"fc": [0.0, 0.0], "b": [0.0, 0.0], "fs": [None, None], "vs": [0.05, 0.05],
+            "c2": [0.0, 0.0],
             "tau0": [0.0, 0.0], "k": [0.0, 0.0], "q0": [0.0, 0.0],
             "payload": p.payload, "extra": list(p.extra_inertia), "g": p.g}
 
@@ -474,6 +475,10 @@ VOCABULARY = (
                        Param(name="vs", unit="{position}/s", bounds=(1e-9, math.inf),
                              inject=(0.07, 0.3))),
                write=_stribeck, needs=("coulomb_friction",)),
+    EffectSpec(name="quadratic_drag", label="quadratic drag", scope="channel",
+               params=(Param(name="c", unit="{effort}·s²/{position}²", bounds=_NONNEG,
+                             inject=(0.01, 0.1)),),
+               write=_set("c2", "c")),
     EffectSpec(name="torque_bias", label="torque bias", scope="channel",
                params=(Param(name="tau0", unit="{effort}", bounds=_ANY, inject=(0.05, 0.3),
                              signed=True),),
@@ -509,7 +514,7 @@ def _fold(plant: Plant) -> Folded:
     sig = (float(sig),) * 2 if np.isscalar(sig) else tuple(float(s) for s in sig)
     fs = tuple(acc["fs"][i] if acc["fs"][i] is not None else acc["fc"][i] for i in range(2))
     friction = FrictionParams(fc=tuple(acc["fc"]), b=tuple(acc["b"]), fs=fs,
-                              vs=tuple(acc["vs"]), sigma=sig)
+                              vs=tuple(acc["vs"]), sigma=sig, c2=tuple(acc["c2"]))
     disturbance = JointDisturbance(tau0=tuple(acc["tau0"]), k=tuple(acc["k"]),
                                    q0=tuple(acc["q0"]))
     params = p
@@ -539,13 +544,15 @@ def friction_effects(friction: FrictionParams | None) -> tuple[EffectInstance, .
     fa = friction.array
     out: list[EffectInstance] = []
     for j, ch in enumerate(JOINTS):
-        fc, b, fs, vs = (float(fa[j, c]) for c in (fr.FC, fr.B, fr.FS, fr.VS))
+        fc, b, fs, vs, c2 = (float(fa[j, c]) for c in (fr.FC, fr.B, fr.FS, fr.VS, fr.C2))
         if fc != 0.0 or fs != fc:
             out.append(EffectInstance("coulomb_friction", ch, {"Fc": fc}))
         if b != 0.0:
             out.append(EffectInstance("viscous_friction", ch, {"b": b}))
         if fs != fc:
             out.append(EffectInstance("stribeck_friction", ch, {"Fs": fs, "vs": vs}))
+        if c2 != 0.0:
+            out.append(EffectInstance("quadratic_drag", ch, {"c": c2}))
     return tuple(out)
 
 

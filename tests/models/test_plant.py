@@ -77,3 +77,31 @@ def test_envs_accept_a_plant_and_agree_with_their_keyword_form():
         BicycleTireEnv(plant=kw.plant)
     car = BicycleTireEnv(plant=bic.make_plant(vx=12.0))
     assert car.vx == 12.0 and car.tire is None
+
+
+def test_quadratic_drag_is_one_vocabulary_entry_end_to_end(tmp_path):
+    """Added in models/friction.py + models/manipulator.py only: plant, env, generator, record."""
+    from typer.testing import CliRunner
+
+    from simgap.cli import app
+    from simgap.diagnosis.augmented import AugmentedManipulator
+    from simgap.diagnosis.generate import InjectedEffect, manipulator_plant
+
+    plant = man.make_plant(friction=None).with_effect("quadratic_drag", "joint2", c=0.05)
+    q, dq = np.array([0.1, 0.2]), np.array([1.5, -2.0])
+    np.testing.assert_allclose(man.tau_d(q, dq, plant.array), [0.0, 0.05 * -2.0 * 2.0])
+    env = ManipulatorFrictionEnv(plant=plant)
+    assert env.friction.c2 == (0.0, 0.05)
+    injected = manipulator_plant([InjectedEffect(effect="quadratic_drag", channel="joint2",
+                                                 params={"c": 0.05})])
+    np.testing.assert_array_equal(injected, plant.array)
+    aug = AugmentedManipulator([{"effect": "quadratic_drag", "channel": "joint2",
+                                 "params": {"c": 0.05}}])
+    np.testing.assert_array_equal(aug.theta, plant.array)
+    out = tmp_path / "drag.csv"
+    res = CliRunner().invoke(app, ["record", str(out), "--effect", "quadratic_drag:joint1:c=0.05",
+                                   "--duration", "0.5"])
+    assert res.exit_code == 0, res.output
+    bad = CliRunner().invoke(app, ["record", str(tmp_path / "x.csv"), "--effect",
+                                   "quadratic_drag:joint1:c=-1"])
+    assert bad.exit_code == 2 and "within" in bad.output
