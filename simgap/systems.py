@@ -159,25 +159,22 @@ def identifier_preset_of(model: Any) -> str:
     return spec.identifier_preset
 
 
-register_system(SystemSpec(
-    name="manipulator2dof", params_cls=man.ManipulatorParams,
-    nominal=lambda params, dt=None: man.ManipulatorNominal(
-        params, **({} if dt is None else {"dt": dt})),
-    plant_schema=man.PLANT_SCHEMA,
-    recording=RecordingSchema(canonical=man.RECORDING_COLUMNS),
-    identifier_preset="manipulator",
-    residual_form="simgap.diagnosis.systems:MechanicalSystem",
-    generator="simgap.diagnosis.generate:generate_manipulator",
-    env_id="simgap/ManipulatorFriction-v0",
-    env_entry_point="simgap.envs.manipulator:ManipulatorFrictionEnv", max_episode_steps=5000))
-register_system(SystemSpec(
-    name="bicycle", params_cls=bic.BicycleParams,
-    nominal=lambda params, dt=None: bic.BicycleNominal(
-        params, **({} if dt is None else {"dt": dt})),
-    plant_schema=bic.PLANT_SCHEMA,
-    recording=RecordingSchema(canonical=bic.RECORDING_COLUMNS),
-    identifier_preset="bicycle",
-    residual_form="simgap.diagnosis.systems:BicycleSystem",
-    generator="simgap.diagnosis.generate:generate_bicycle",
-    env_id="simgap/BicycleTire-v0",
-    env_entry_point="simgap.envs.bicycle:BicycleTireEnv", max_episode_steps=3500))
+def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
+             form: str, generator: str, env_id: str, env: str, steps: int) -> SystemSpec:
+    """A built-in system: its plant schema names it and its parameter class."""
+    return register_system(SystemSpec(
+        name=schema.system, params_cls=schema.params_cls,
+        nominal=lambda params, dt=None: nominal_cls(params, **({} if dt is None else {"dt": dt})),
+        plant_schema=schema, recording=RecordingSchema(canonical=columns),
+        identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
+        generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
+        env_entry_point=env, max_episode_steps=steps))
+
+
+_builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
+         form="MechanicalSystem", generator="generate_manipulator",
+         env_id="simgap/ManipulatorFriction-v0",
+         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000)
+_builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
+         form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
+         env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)
