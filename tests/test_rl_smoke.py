@@ -29,7 +29,7 @@ def test_random_friction_draws_and_fixes_mu():
     mus = {env.reset(seed=s)[1]["mu"] for s in range(4)}
     assert len(mus) == 4 and all(0.4 <= m <= 0.7 for m in mus)
     _, info = env.reset(options={"mu": 0.55})
-    assert info["mu"] == 0.55 and env.unwrapped.plant_theta[7] == 0.55
+    assert info["mu"] == 0.55 and env.unwrapped.mu == 0.55
     assert env.unwrapped.true_params.mu == 0.55
 
 

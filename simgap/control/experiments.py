@@ -37,7 +37,7 @@ from simgap.envs.scenarios import (
     slalom,
 )
 from simgap.identifiers import Identifier
-from simgap.models.bicycle import true_residual_vs
+from simgap.models.bicycle import has_lag_states, true_residual_vs
 from simgap.models.manipulator import true_residual as manipulator_true_residual
 from simgap.wrappers import IdentifierWrapper
 
@@ -91,7 +91,7 @@ class TrueResidual:
             self.n_states, self.n_inputs = 4, 2
             self._la = np.ascontiguousarray(base.nominal_params.array)
         elif isinstance(base, BicycleTireEnv):
-            if np.any(base.plant_theta[12:15] > 0):
+            if has_lag_states(base.plant.array):
                 raise ValueError("TrueResidual needs a bicycle without relaxation or lag")
             self.n_states, self.n_inputs = 2, 2
             self._th_nom = np.concatenate([base.nominal_params.array, [base.vx]])
@@ -102,10 +102,10 @@ class TrueResidual:
         base = self._base
         if self.n_states == 4:
             s = base.nominal_model.observation(x)
-            return manipulator_true_residual(s, u, base.plant_theta, self._la)
+            return manipulator_true_residual(s, u, base.plant.array, self._la)
         s = np.zeros(6)
         s[:2] = x
-        return true_residual_vs(s, u, base.plant_theta, self._th_nom)
+        return true_residual_vs(s, u, base.plant.array, self._th_nom)
 
     def __call__(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """G (state units/s) for x (n,) or (K, n) and u (m,) or (K, m)."""
@@ -225,7 +225,7 @@ def bicycle_tracking(policy_kind: str, task: BicycleTask, seconds: float, *,
     exact = None
     if identifier == TRUE_RESIDUAL:
         if policy_kind == "mpc":
-            exact = env.plant_theta
+            exact = env.plant
         else:
             residual = TrueResidual(env)
     elif identifier is not None:

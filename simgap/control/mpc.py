@@ -36,7 +36,9 @@ from numba import njit
 
 from simgap.control.compensation import ResidualNetwork
 from simgap.identifiers.activation import tanh_scalar as fast_tanh
+from simgap.models import bicycle as bic
 from simgap.models.bicycle import BicycleNominal, plant_derivative
+from simgap.models.effects import Plant
 
 
 @njit(cache=True)
@@ -175,13 +177,14 @@ class SamplingMPC:
             with the nominal model alone. An online (live) network is copied at every call.
         config: :class:`MPCConfig`.
         seed: seed of the perturbation Generator.
-        exact_plant: a bicycle plant array (``env.plant_theta``) to predict with the exact
-            truth instead (simulation-only upper bound; ``residual`` must be ``None``).
+        exact_plant: a bicycle :class:`~simgap.models.effects.Plant` (``env.plant``; a plant
+            kernel array is accepted too) to predict with the exact truth instead
+            (simulation-only upper bound; ``residual`` must be ``None``).
     """
 
     def __init__(self, model: BicycleNominal, reference: Callable[[float], float],
                  residual: ResidualNetwork | None = None, *, config: MPCConfig | None = None,
-                 seed: int = 0, exact_plant: np.ndarray | None = None) -> None:
+                 seed: int = 0, exact_plant: Plant | np.ndarray | None = None) -> None:
         if not isinstance(model, BicycleNominal):
             raise TypeError(f"model must be a BicycleNominal, got {model!r}")
         if not callable(reference):
@@ -192,10 +195,12 @@ class SamplingMPC:
         if exact_plant is not None:
             if residual is not None:
                 raise ValueError("give either a residual network or exact_plant, not both")
+            if isinstance(exact_plant, Plant):
+                exact_plant = exact_plant.array
             exact_plant = np.ascontiguousarray(exact_plant, dtype=np.float64)
-            if exact_plant.shape != (17,) or np.any(exact_plant[12:15] > 0):
-                raise ValueError("exact_plant must be a 17-entry bicycle plant array without "
-                                 "relaxation or steering lag")
+            if exact_plant.shape != (bic.PLANT.size,) or bic.has_lag_states(exact_plant):
+                raise ValueError(f"exact_plant must be a {bic.PLANT.size}-entry bicycle plant "
+                                 "array without relaxation or steering lag")
         self.exact_plant = exact_plant
         self.model = model
         self.reference = reference

@@ -20,7 +20,7 @@ stable-baselines3 and torch (extra ``rl``) are imported only by :func:`train_age
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -73,8 +73,9 @@ class RLTask:
 class RandomFriction(gym.Wrapper):
     """Draw the road friction μ ~ U(mu_range) at every reset (``options={"mu": v}`` fixes it).
 
-    Rebuilds the bicycle env's plant array with :func:`simgap.models.bicycle.plant_array`
-    (same tire and options, new μ); adds ``info["mu"]`` at reset and every step.
+    Sets the env's plant to ``plant.with_effect("tire_saturation", mu=μ)`` (same tire and
+    options, new μ; ``env.unwrapped.mu`` follows); adds ``info["mu"]`` at reset and every
+    step.
     """
 
     def __init__(self, env: gym.Env, mu_range: tuple[float, float]) -> None:
@@ -82,7 +83,7 @@ class RandomFriction(gym.Wrapper):
         if not isinstance(env.unwrapped, BicycleTireEnv):
             raise TypeError("RandomFriction needs a BicycleTireEnv")
         self.mu_range = (float(mu_range[0]), float(mu_range[1]))
-        self.mu = float(env.unwrapped.true_params.mu)
+        self.mu = float(env.unwrapped.mu)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[Any, dict[str, Any]]:
@@ -93,10 +94,10 @@ class RandomFriction(gym.Wrapper):
         opts = dict(options or {})
         mu = opts.pop("mu", None)
         self.mu = float(mu) if mu is not None else float(base.np_random.uniform(*self.mu_range))
-        base.true_params = replace(base.true_params, mu=self.mu)
-        th = base.plant_theta.copy()
-        th[7] = self.mu  # PLANT_FIELDS[7] == "mu"
-        base.plant_theta = th
+        plant = base.plant
+        # one road μ for both axles; with linear truth tires μ only sets the parameter
+        base.plant = plant.with_effect("tire_saturation", mu=self.mu) \
+            if plant.has("tire_saturation") else plant.with_params(mu=self.mu)
         obs, info = self.env.reset(options=opts or None)
         info["mu"] = self.mu
         return obs, info

@@ -36,16 +36,18 @@ from typing import Any
 
 import numpy as np
 
-from simgap.errors import ModelFileError
+from simgap.errors import ModelError, ModelFileError
+from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
-from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative, plant_array
+from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative
+from simgap.models.effects import EffectInstance, Plant, PlantSchema
 from simgap.models.friction import FrictionParams
 from simgap.models.tires import MagicFormulaTire, magic_formula
 
-JOINTS = ("joint1", "joint2")
-AXLES = ("front_axle", "rear_axle")
-DEFAULT_SIGMA = 6.67e-4
+JOINTS = man.JOINTS
+AXLES = bic.AXLES
+DEFAULT_SIGMA = man.DEFAULT_SIGMA
 
 
 def _p(effect: Mapping[str, Any]) -> dict[str, float]:
@@ -68,36 +70,39 @@ def manipulator_physics(effects: Sequence[Mapping[str, Any]],
         ``ManipulatorParams`` (payload, extra_inertia, g), ``FrictionParams``,
         ``JointDisturbance``.
     """
-    p = base or man.ManipulatorParams()
-    fc, b, fs, vs = [0.0, 0.0], [0.0, 0.0], [None, None], [0.05, 0.05]
-    tau0, k, q0 = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
-    payload, extra, g = p.payload, list(p.extra_inertia), p.g
+    f = manipulator_plant(effects, base, sigma).folded
+    return f.params, f.extras["friction"], f.extras["disturbance"]
+
+
+def _instances(schema: PlantSchema, effects: Sequence[Mapping[str, Any]]
+               ) -> tuple[EffectInstance, ...]:
+    """Report effect dicts → plant instances.
+
+    A system effect's report channel ("arm", "vehicle") says where the report lists it; it is
+    not a plant channel.
+    """
+    out = []
     for e in effects:
-        name, pr = e["effect"], _p(e)
-        j = JOINTS.index(e["channel"]) if e.get("channel") in JOINTS else None
-        if name == "coulomb_friction":
-            fc[j] = pr["Fc"]
-        elif name == "viscous_friction":
-            b[j] = pr["b"]
-        elif name == "stribeck_friction":
-            fs[j], vs[j] = pr["Fs"], pr["vs"]
-        elif name == "torque_bias":
-            tau0[j] += pr["tau0"]
-        elif name == "spring":
-            k[j], q0[j] = pr["k"], pr.get("q0", 0.0)
-        elif name == "payload_mass":
-            payload = pr["mp"]
-        elif name == "gravity_mismatch":
-            g = p.g * (1.0 + pr["dG"])
-        elif name == "inertia_mismatch":
-            extra[j] = pr["dI"]
-        else:
-            raise ModelFileError(f"effect {name!r} does not apply to manipulator2dof")
+        spec = schema.effect(e["effect"])
+        out.append(EffectInstance(e["effect"],
+                                  None if spec.scope == "system" else e.get("channel"), _p(e)))
+    return tuple(out)
+
+
+def _plant(schema: PlantSchema, base: Any, effects: Sequence[Mapping[str, Any]],
+           **options: Any) -> Plant:
+    try:
+        return schema.plant(base, _instances(schema, effects), **options)
+    except ModelError as err:
+        raise ModelFileError(str(err)) from None
+
+
+def manipulator_plant(effects: Sequence[Mapping[str, Any]],
+                      base: man.ManipulatorParams | None = None,
+                      sigma: Sequence[float] | float = DEFAULT_SIGMA) -> Plant:
+    """Vocabulary effects (report dicts) → the arm's :class:`~simgap.models.effects.Plant`."""
     sig = (float(sigma),) * 2 if np.isscalar(sigma) else tuple(float(s) for s in sigma)
-    fs_full = tuple(fs[i] if fs[i] is not None else fc[i] for i in range(2))
-    friction = FrictionParams(fc=tuple(fc), b=tuple(b), fs=fs_full, vs=tuple(vs), sigma=sig)
-    params = dataclasses.replace(p, g=g, payload=payload, extra_inertia=tuple(extra))
-    return params, friction, man.JointDisturbance(tau0=tuple(tau0), k=tuple(k), q0=tuple(q0))
+    return _plant(man.PLANT_SCHEMA, base, effects, coulomb_sigma=sig)
 
 
 class AugmentedManipulator(man.ManipulatorNominal):
@@ -115,13 +120,16 @@ class AugmentedManipulator(man.ManipulatorNominal):
     def __init__(self, effects: Sequence[Mapping[str, Any]] = (),
                  base: man.ManipulatorParams | None = None,
                  sigma: Sequence[float] | float = DEFAULT_SIGMA, dt: float = 0.002) -> None:
-        params, friction, disturbance = manipulator_physics(effects, base, sigma)
+        plant = manipulator_plant(effects, base, sigma)
+        params, friction, disturbance = plant.true_params, plant.folded.extras["friction"], \
+            plant.folded.extras["disturbance"]
         super().__init__(params, dt=dt)
+        self.plant = plant
         self.base_params = base or man.ManipulatorParams()
         self.effects = [dict(e) for e in effects]
         self.sigma = sigma
         self.friction, self.disturbance = friction, disturbance
-        self.theta = man.plant_array(params, friction, disturbance)
+        self.theta = plant.array
 
     def tau_d(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Left-out torque of the named friction/bias/spring effects (N·m)."""
@@ -157,35 +165,21 @@ class AugmentedManipulator(man.ManipulatorNominal):
 def bicycle_physics(effects: Sequence[Mapping[str, Any]], base: BicycleParams | None = None
                     ) -> dict[str, Any]:
     """Vocabulary effects → true vehicle parameters and options of the bicycle."""
-    p = base or BicycleParams()
-    kw = {f.name: getattr(p, f.name) for f in dataclasses.fields(p)}
-    out: dict[str, Any] = {"mu": [None, None], "steering_lag": 0.0, "lateral_bias": 0.0,
-                           "yaw_bias": 0.0}
-    for e in effects:
-        name, pr = e["effect"], _p(e)
-        axle = AXLES.index(e["channel"]) if e.get("channel") in AXLES else None
-        if name == "tire_saturation":
-            out["mu"][axle] = pr["mu"]
-        elif name == "cornering_stiffness":
-            key = ("C_af", "C_ar")[axle]
-            kw[key] = kw[key] * pr["ratio"]
-        elif name == "steering_lag":
-            out["steering_lag"] = pr["tau"]
-        elif name == "lateral_bias":
-            out["lateral_bias"] = pr["ay0"]
-        elif name == "yaw_bias":
-            out["yaw_bias"] = pr["dr0"]
-        elif name == "mass_mismatch":
-            kw["m"] = kw["m"] * pr["ratio"]
-        elif name == "yaw_inertia_mismatch":
-            kw["Iz"] = kw["Iz"] * pr["ratio"]
-        else:
-            raise ModelFileError(f"effect {name!r} does not apply to bicycle")
-    mus = [m for m in out["mu"] if m is not None]
-    if mus:
-        kw["mu"] = float(np.mean(mus))
-    out["params"] = BicycleParams(**kw)
-    return out
+    return _phys(bicycle_plant(effects, base))
+
+
+def _phys(plant: Plant) -> dict[str, Any]:
+    f = plant.folded
+    return {"mu": list(f.extras["axle_mu"]), "steering_lag": f.extras["steering_lag"],
+            "lateral_bias": f.extras["lateral_bias"], "yaw_bias": f.extras["yaw_bias"],
+            "params": f.params}
+
+
+def bicycle_plant(effects: Sequence[Mapping[str, Any]], base: BicycleParams | None = None,
+                  vx: float = 20.0, tire: MagicFormulaTire | None = None) -> Plant:
+    """Vocabulary effects (report dicts) → the vehicle's :class:`~simgap.models.effects.Plant`."""
+    mf = tire or MagicFormulaTire()
+    return _plant(bic.PLANT_SCHEMA, base, effects, vx=vx, mf_C=mf.C, mf_E=mf.E)
 
 
 class AugmentedBicycle(BicycleNominal):
@@ -196,8 +190,10 @@ class AugmentedBicycle(BicycleNominal):
     def __init__(self, effects: Sequence[Mapping[str, Any]] = (),
                  base: BicycleParams | None = None, vx: float = 20.0, dt: float = 0.01,
                  tire: MagicFormulaTire | None = None) -> None:
-        phys = bicycle_physics(effects, base)
+        plant = bicycle_plant(effects, base, vx, tire)
+        phys = _phys(plant)
         super().__init__(phys["params"], vx=vx, dt=dt)
+        self.plant = plant
         self.base_params = base or BicycleParams()
         self.effects = [dict(e) for e in effects]
         self.phys = phys
@@ -238,11 +234,7 @@ class AugmentedBicycle(BicycleNominal):
 
     def plant_theta(self, vx: float | None = None) -> np.ndarray:
         """Plant array (:func:`simgap.models.bicycle.plant_array`) incl. the steering lag."""
-        sat = any(m is not None for m in self.phys["mu"])
-        return plant_array(self.params, vx or self.vx, tire=self.tire if sat else None,
-                           steering_lag=self.phys["steering_lag"],
-                           lateral_bias=self.phys["lateral_bias"],
-                           yaw_bias=self.phys["yaw_bias"])
+        return self.plant.with_options(vx=vx or self.vx).array
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description."""

@@ -39,38 +39,24 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from simgap.diagnosis.augmented import bicycle_physics, manipulator_physics
 from simgap.errors import GeneratorError
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
+from simgap.models.effects import EffectInstance, PlantSchema
 from simgap.models.integrators import rk4
-from simgap.models.tires import MagicFormulaTire
 from simgap.recordings import Recording
 
-#: Injectable manipulator effects: name -> (per joint?, parameter names).
+#: Injectable manipulator effects: name -> (per joint?, parameter names), from the vocabulary.
 MANIPULATOR_EFFECTS: dict[str, tuple[bool, tuple[str, ...]]] = {
-    "coulomb_friction": (True, ("Fc",)),
-    "viscous_friction": (True, ("b",)),
-    "stribeck_friction": (True, ("Fs", "vs")),
-    "torque_bias": (True, ("tau0",)),
-    "spring": (True, ("k", "q0")),
-    "payload_mass": (False, ("mp",)),
-    "gravity_mismatch": (False, ("dG",)),
-    "inertia_mismatch": (True, ("dI",)),
-}
-#: Injectable bicycle effects: name -> (per axle?, parameter names).
+    e.name: (e.scope == "channel", tuple(p.name for p in e.params))
+    for e in man.PLANT_SCHEMA.vocabulary}
+#: Injectable bicycle effects: name -> (per axle?, parameter names), from the vocabulary
+#: (``tire_relaxation`` is outside the diagnosis vocabulary, for tests).
 BICYCLE_EFFECTS: dict[str, tuple[bool, tuple[str, ...]]] = {
-    "tire_saturation": (False, ("mu",)),
-    "cornering_stiffness": (True, ("ratio",)),
-    "lateral_bias": (False, ("ay0",)),
-    "yaw_bias": (False, ("dr0",)),
-    "mass_mismatch": (False, ("ratio",)),
-    "yaw_inertia_mismatch": (False, ("ratio",)),
-    "steering_lag": (False, ("tau",)),
-    "tire_relaxation": (False, ("length",)),  # outside the vocabulary, for tests
-}
-JOINTS = ("joint1", "joint2")
-AXLES = ("front_axle", "rear_axle")
+    e.name: (e.scope == "channel", tuple(p.name for p in e.params))
+    for e in bic.PLANT_SCHEMA.vocabulary}
+JOINTS = man.JOINTS
+AXLES = bic.AXLES
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -94,22 +80,22 @@ class InjectedEffect:
                 "params": {k: float(v) for k, v in self.params.items()}}
 
 
-def _check(effects: Sequence[InjectedEffect], table: dict, channels: tuple[str, ...]) -> None:
+def instances(effects: Sequence[InjectedEffect], schema: PlantSchema
+              ) -> tuple[EffectInstance, ...]:
+    """Check injected effects against the system's vocabulary and make plant instances.
+
+    Raises:
+        GeneratorError: one line naming an unknown effect, a channel the effect does not act
+            on (e.g. ``joint1`` for a bicycle effect), or a missing, unknown or out-of-range
+            parameter.
+    """
+    out = []
     for e in effects:
-        if e.effect not in table:
-            raise GeneratorError(f"unknown effect {e.effect!r}; choose from {sorted(table)}")
-        per, names = table[e.effect]
-        if per and e.channel not in channels:
-            raise GeneratorError(f"effect {e.effect!r} needs a channel in {channels}, "
-                                 f"got {e.channel!r}")
-        missing = [n for n in names if n not in e.params and not (n == "q0")]
-        unknown = [n for n in e.params if n not in names]
-        if missing or unknown:
-            raise GeneratorError(f"effect {e.effect!r} takes parameters {names}, "
-                                 f"got {sorted(e.params)}")
-        for k, v in e.params.items():
-            if not np.isfinite(float(v)):
-                raise GeneratorError(f"effect {e.effect!r} parameter {k} must be finite")
+        spec = schema.effect(e.effect, GeneratorError)
+        out.append(EffectInstance(e.effect, e.channel,
+                                  spec.check(e.channel, e.params, schema.channels,
+                                             GeneratorError)))
+    return tuple(out)
 
 
 # --------------------------------------------------------------------------- manipulator
@@ -169,10 +155,8 @@ def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, 
 
 def manipulator_plant(effects: Sequence[InjectedEffect],
                       params: man.ManipulatorParams | None = None) -> np.ndarray:
-    """Plant array (:func:`simgap.models.manipulator.plant_array`) with the effects injected."""
-    _check(effects, MANIPULATOR_EFFECTS, JOINTS)
-    params, friction, disturbance = manipulator_physics([e.to_dict() for e in effects], params)
-    return man.plant_array(params, friction, disturbance)
+    """Plant array of the nominal arm with the effects injected (:class:`Plant` ``.array``)."""
+    return man.PLANT_SCHEMA.plant(params, instances(effects, man.PLANT_SCHEMA)).array
 
 
 def generate_manipulator(effects: Sequence[InjectedEffect] = (), *, duration: float = 20.0,
@@ -270,30 +254,19 @@ def _bicycle_loop(theta, vx, delta, dt, n_sub):  # pragma: no cover - compiled
     th = theta.copy()
     for k in range(n):
         states[k] = s
-        th[8] = vx[k]
+        th[bic.VX] = vx[k]
         s = rk4(bic.plant_derivative, s, delta[k], th, dt, n_sub)
     return states
 
 
 def bicycle_plant(effects: Sequence[InjectedEffect], vx: float,
                   params: bic.BicycleParams | None = None) -> np.ndarray:
-    """Plant array (:func:`simgap.models.bicycle.plant_array`) with the effects injected."""
-    _check(effects, BICYCLE_EFFECTS, AXLES)
-    vocab = []
-    for e in effects:
-        d = e.to_dict()
-        if e.effect == "tire_saturation":  # one road: the same mu on both axles
-            vocab += [dict(d, channel=a) for a in AXLES]
-        elif e.effect == "steering_lag":
-            vocab.append(dict(d, channel="front_axle"))
-        elif e.effect != "tire_relaxation":
-            vocab.append(d)
-    phys = bicycle_physics(vocab, params)
-    relax = sum(float(e.params["length"]) for e in effects if e.effect == "tire_relaxation")
-    sat = any(m is not None for m in phys["mu"])
-    return bic.plant_array(phys["params"], vx, tire=MagicFormulaTire() if sat else None,
-                           relaxation_length=relax, steering_lag=phys["steering_lag"],
-                           lateral_bias=phys["lateral_bias"], yaw_bias=phys["yaw_bias"])
+    """Plant array of the nominal vehicle at ``vx`` (m/s) with the effects injected.
+
+    ``tire_saturation`` without a channel is one road μ for both axles.
+    """
+    return bic.PLANT_SCHEMA.plant(params, instances(effects, bic.PLANT_SCHEMA),
+                                  vx=bic.check_vx(vx)).array
 
 
 def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float = 40.0,
@@ -349,9 +322,15 @@ def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float 
 
 
 def generate(model: str, effects: Sequence[InjectedEffect] = (), **kwargs) -> Recording:
-    """Dispatch to :func:`generate_manipulator` or :func:`generate_bicycle` by model name."""
-    if model == "manipulator2dof":
-        return generate_manipulator(effects, **kwargs)
-    if model == "bicycle":
-        return generate_bicycle(effects, **kwargs)
-    raise GeneratorError(f"unknown model {model!r}; use manipulator2dof or bicycle")
+    """Dispatch to the registered system's generator (:data:`simgap.systems.SYSTEMS`).
+
+    Raises:
+        GeneratorError: the system is unknown (the message lists the registered ones) or
+            has no generator.
+    """
+    from simgap.systems import get_system
+
+    spec = get_system(model, GeneratorError)
+    if spec.generator is None:
+        raise GeneratorError(f"system {model!r} has no concealed-effect generator")
+    return spec.resolve("generator")(effects, **kwargs)

@@ -46,8 +46,8 @@ from simgap.diagnosis.user_models import check_model, is_adapter, load_model_fil
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
-from simgap.models.bicycle import BicycleNominal, BicycleParams
-from simgap.models.manipulator import ManipulatorNominal, ManipulatorParams
+from simgap.models.bicycle import BicycleNominal
+from simgap.models.manipulator import ManipulatorNominal
 from simgap.recordings import (
     ColumnMap,
     Recording,
@@ -58,6 +58,7 @@ from simgap.recordings import (
     recording_from_arrays,
 )
 from simgap.recordings import read as read_columns
+from simgap.systems import get_system
 
 MODELS = ("manipulator2dof", "bicycle")
 
@@ -137,13 +138,14 @@ def resolve_model(model: str | Any, params: Mapping[str, Any] | None = None
         CustomModelError: an unusable model file or model object.
     """
     if isinstance(model, str):
-        if model == "manipulator2dof":
-            return ManipulatorNominal(_apply_overrides(ManipulatorParams, params, model)), None
-        if model == "bicycle":
-            return BicycleNominal(_apply_overrides(BicycleParams, params, model)), None
-        if ":" not in model:
-            raise DiagnosisError(f"unknown model {model!r}; use one of {', '.join(MODELS)} "
-                                 "or path/to/model.py:NAME")
+        if ":" not in model:  # a registered system (simgap.systems)
+            try:
+                spec = get_system(model, DiagnosisError)
+            except DiagnosisError as err:
+                raise DiagnosisError(f"{err}; or a user model path/to/model.py:NAME") from None
+            if spec.residual_form is None or spec.nominal is None or spec.params_cls is None:
+                raise DiagnosisError(f"system {model!r} has no diagnosis adapter")
+            return spec.nominal(_apply_overrides(spec.params_cls, params, model), None), None
         if params:
             raise DiagnosisError(f"parameter overrides apply to built-in models only; set the "
                                  f"parameters in {model.rsplit(':', 1)[0]}")

@@ -20,31 +20,22 @@ from typing import Any
 
 import numpy as np
 
+from simgap.diagnosis.effects import VOCABULARY
 from simgap.diagnosis.generate import InjectedEffect, generate
 from simgap.diagnosis.pipeline import diagnose
+from simgap.models import bicycle as bic
+from simgap.models import manipulator as man
 from simgap.recordings import Recording
 
-#: Parameter ranges per effect: name -> (model, per-channel choices, {param: (lo, hi, signed)})
+#: Parameter ranges per effect: name -> (model, per-channel choices, {param: (lo, hi, signed)}),
+#: read from the vocabulary's injection ranges (:attr:`simgap.models.effects.Param.inject`)
+#: for every effect the diagnosis can name.
 RANGES: dict[str, tuple[str, tuple[str, ...] | None, dict[str, tuple[float, float, bool]]]] = {
-    "coulomb_friction": ("manipulator2dof", ("joint1", "joint2"), {"Fc": (0.05, 0.3, False)}),
-    "viscous_friction": ("manipulator2dof", ("joint1", "joint2"), {"b": (0.05, 0.5, False)}),
-    "stribeck_friction": ("manipulator2dof", ("joint1", "joint2"),
-                          {"Fs": (0.2, 0.4, False), "vs": (0.07, 0.3, False)}),
-    "torque_bias": ("manipulator2dof", ("joint1", "joint2"), {"tau0": (0.05, 0.3, True)}),
-    "spring": ("manipulator2dof", ("joint1", "joint2"),
-               {"k": (0.5, 3.0, False), "q0": (-0.5, 0.5, False)}),
-    "payload_mass": ("manipulator2dof", None, {"mp": (0.1, 0.5, False)}),
-    "gravity_mismatch": ("manipulator2dof", None, {"dG": (0.02, 0.1, True)}),
-    "inertia_mismatch": ("manipulator2dof", ("joint1", "joint2"), {"dI": (0.015, 0.04, False)}),
-    "tire_saturation": ("bicycle", None, {"mu": (0.5, 0.8, False)}),
-    "cornering_stiffness": ("bicycle", ("front_axle", "rear_axle"),
-                            {"ratio": (0.7, 0.85, False)}),
-    "lateral_bias": ("bicycle", None, {"ay0": (0.2, 0.5, True)}),
-    "yaw_bias": ("bicycle", None, {"dr0": (0.08, 0.2, True)}),
-    "mass_mismatch": ("bicycle", None, {"ratio": (1.1, 1.25, False)}),
-    "yaw_inertia_mismatch": ("bicycle", None, {"ratio": (1.15, 1.3, False)}),
-    "steering_lag": ("bicycle", None, {"tau": (0.04, 0.15, False)}),
-}
+    e.name: (schema.system,
+             schema.channels if e.scope == "channel" and not e.all_channels else None,
+             {p.name: (*p.inject, p.signed) for p in e.params if p.inject is not None})
+    for schema in (man.PLANT_SCHEMA, bic.PLANT_SCHEMA) for e in schema.vocabulary
+    if e.name in VOCABULARY and any(p.inject for p in e.params)}
 #: Absolute floor of the tolerance where a relative one is meaningless (q0 may be ~0).
 ABS_SCALE = {"q0": 0.5}
 #: Where the diagnosis reports effects that the generator injects without a channel.

@@ -13,12 +13,51 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from simgap.errors import EnvError
+from simgap.models.effects import Plant, PlantSchema
+
 
 class PlantEnv(gym.Env):
     """Base of the simgap envs (not registered itself)."""
 
     dt: float
     render_mode: str | None
+    plant_schema: PlantSchema
+    _plant: Plant
+    _theta: np.ndarray
+
+    # ------------------------------------------------------------------ the one plant
+    @property
+    def plant(self) -> Plant:
+        """The truth: nominal parameters + named effects (:class:`~simgap.models.effects.Plant`).
+
+        Assigning a new plant (``env.plant = env.plant.with_effect(...)``) rebuilds the kernel
+        array; every plant quantity of the env (``plant_theta``, ``true_params``, …) is derived
+        from it, so none can go stale. The new plant acts from the next step on.
+        """
+        return self._plant
+
+    @plant.setter
+    def plant(self, plant: Plant) -> None:
+        if not isinstance(plant, Plant) or plant.schema is not self.plant_schema:
+            raise EnvError(f"{type(self).__name__}.plant needs a {self.plant_schema.system} "
+                           f"Plant, got {plant!r}")
+        self._check_plant(plant)
+        self._plant = plant
+        self._theta = plant.array
+
+    def _check_plant(self, plant: Plant) -> None:
+        """Subclasses reject plants the env cannot run (e.g. another speed)."""
+
+    @property
+    def plant_theta(self) -> np.ndarray:
+        """Copy of the plant kernel array (read-only view of :attr:`plant`)."""
+        return self._theta.copy()
+
+    @property
+    def true_params(self) -> Any:
+        """The plant's effective rigid-body parameters (read-only view of :attr:`plant`)."""
+        return self._plant.true_params
 
     def _init_plant(self, n_obs: int, n_plant: int, low: np.ndarray, high: np.ndarray) -> None:
         """Set the spaces (unbounded float64 observation, float32 action box) and the state.

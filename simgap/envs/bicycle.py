@@ -25,17 +25,21 @@ from simgap.envs._common import (
 )
 from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import YawRateReference
+from simgap.errors import EnvError
 from simgap.models.base import validate_positive
 from simgap.models.bicycle import (
+    PLANT_SCHEMA,
     BicycleNominal,
     BicycleParams,
     check_vx,
-    plant_array,
+    has_steering_lag,
+    make_plant,
     plant_forces,
     plant_step,
     slip_angles,
     true_residual_vs,
 )
+from simgap.models.effects import Plant
 from simgap.models.tires import MagicFormulaTire
 
 TIRE_MODELS = ("magic_formula", "linear")
@@ -75,9 +79,17 @@ class BicycleTireEnv(PlantEnv):
     ``"applied_action"`` the steering command after clipping (rad; zeros at reset). At reset
     the residual is evaluated at the initial state with zero steering.
 
+    The plant is one :class:`~simgap.models.effects.Plant` (``env.unwrapped.plant``): pass
+    ``plant=`` directly, or the keyword sugar below (``mu``, ``tire``, ``relaxation_length``,
+    ``steering_lag``, ``lateral_bias``, ``yaw_bias``, ``true_params``), which is turned into
+    named effect instances. ``mu``, ``tire``, ``true_params`` and ``plant_theta`` are
+    read-only views of it; change the truth with ``env.plant = env.plant.with_effect(...)``.
+
     Args:
         render_mode: ``None`` or ``"rgb_array"`` (top view with axle force arrows).
-        vx: constant longitudinal speed (m/s), > 1.
+        plant: the truth as a bicycle ``Plant`` (its ``vx`` option is the env's speed);
+            excludes the plant keywords below.
+        vx: constant longitudinal speed (m/s), > 1 (default 20, or the plant's).
         mu: road friction of the truth tires (-); ``None`` keeps ``true_params.mu`` (1.0 by
             default). A given value overrides ``true_params.mu``.
         tire: ``"magic_formula"`` (spec defaults C = 1.3, E = −0.5), ``"linear"`` (truth equals
@@ -96,8 +108,10 @@ class BicycleTireEnv(PlantEnv):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
+    plant_schema = PLANT_SCHEMA
 
-    def __init__(self, render_mode: str | None = None, *, vx: float = 20.0,
+    def __init__(self, render_mode: str | None = None, *, plant: Plant | None = None,
+                 vx: float | None = None,
                  mu: float | None = None,
                  tire: str | MagicFormulaTire = "magic_formula",
                  relaxation_length: float | tuple[float, float] = 0.0,
@@ -109,7 +123,11 @@ class BicycleTireEnv(PlantEnv):
                  steer_limit: float | tuple[float, float] = 0.5,
                  max_sideslip: float = 0.35) -> None:
         self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
-        self.vx = check_vx(vx)
+        if plant is not None and (not isinstance(plant, Plant)
+                                  or plant.schema is not PLANT_SCHEMA):
+            raise EnvError(f"plant must be a bicycle Plant, got {plant!r}")
+        self.vx = check_vx(vx if vx is not None else
+                           plant.options["vx"] if plant is not None else 20.0)
         self.dt = validate_positive("dt", dt, "s")
         self.n_substeps = check_count("n_substeps", n_substeps)
         self.steer_limit = check_pair("steer_limit", steer_limit, "rad")
@@ -119,21 +137,25 @@ class BicycleTireEnv(PlantEnv):
         for name, p in (("true_params", true_params), ("nominal_params", nominal_params)):
             if p is not None and not isinstance(p, BicycleParams):
                 raise ValueError(f"{name} must be BicycleParams or None, got {p!r}")
-        truth = true_params if true_params is not None else BicycleParams()
-        if mu is not None:
-            truth = replace(truth, mu=validate_positive("mu", mu, "-"))
-        self.true_params = truth
-        self.mu = truth.mu
         self.nominal_params = nominal_params if nominal_params is not None else BicycleParams()
-        self.tire = _resolve_tire(tire)
-        for name, v in (("lateral_bias", lateral_bias), ("yaw_bias", yaw_bias)):
-            if not math.isfinite(float(v)):
-                raise ValueError(f"{name} must be finite, got {v!r}")
-        self.plant_theta = plant_array(self.true_params, self.vx, tire=self.tire,
-                                       relaxation_length=relaxation_length,
-                                       steering_lag=steering_lag,
-                                       lateral_bias=float(lateral_bias),
-                                       yaw_bias=float(yaw_bias))
+        if plant is not None:
+            given = (mu, tire, relaxation_length, steering_lag, lateral_bias, yaw_bias,
+                     true_params)
+            if given != (None, "magic_formula", 0.0, 0.0, 0.0, 0.0, None):
+                raise EnvError("give either plant= or the plant keywords (mu, tire, "
+                               "relaxation_length, steering_lag, lateral_bias, yaw_bias, "
+                               "true_params)")
+        else:
+            truth = true_params if true_params is not None else BicycleParams()
+            if mu is not None:
+                truth = replace(truth, mu=validate_positive("mu", mu, "-"))
+            for name, v in (("lateral_bias", lateral_bias), ("yaw_bias", yaw_bias)):
+                if not math.isfinite(float(v)):
+                    raise ValueError(f"{name} must be finite, got {v!r}")
+            plant = make_plant(truth, self.vx, tire=_resolve_tire(tire),
+                               relaxation_length=relaxation_length, steering_lag=steering_lag,
+                               lateral_bias=float(lateral_bias), yaw_bias=float(yaw_bias))
+        self.plant = plant
         self.reference = reference if reference is not None else YawRateReference()
         if not callable(self.reference):
             raise ValueError(f"reference must be a callable t -> r_ref (rad/s), got {reference!r}")
@@ -166,15 +188,15 @@ class BicycleTireEnv(PlantEnv):
                                      self.true_params.lr)
         self._s = s
         self._last_u = np.zeros(2)
-        g = true_residual_vs(s, self._zero_u, self.plant_theta, self._theta_nom)
+        g = true_residual_vs(s, self._zero_u, self._theta, self._theta_nom)
         return s[:2].copy(), self._info(g, 0.0, float(self.reference(0.0)), self._zero_u.copy())
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply road-wheel angles (rad) for dt seconds."""
         u = prepare_action(action, self._low, self._high, "steering angles (rad)")
         s = self._s
-        g = true_residual_vs(s, u, self.plant_theta, self._theta_nom)
-        s_new = plant_step(s, u, self.plant_theta, self.dt, self.n_substeps)
+        g = true_residual_vs(s, u, self._theta, self._theta_nom)
+        s_new = plant_step(s, u, self._theta, self.dt, self.n_substeps)
         self._s = s_new
         self._last_u = u
         self._k += 1
@@ -192,9 +214,24 @@ class BicycleTireEnv(PlantEnv):
 
     def _draw(self) -> np.ndarray:
         """Top view with true (red) and linear (gray) axle forces."""
-        fyf, fyr, af, ar = plant_forces(self._s, self._last_u, self.plant_theta)
+        fyf, fyr, af, ar = plant_forces(self._s, self._last_u, self._theta)
         p = self.nominal_params
-        delta = self._s[4:6] if self.plant_theta[14] > 0 else self._last_u
+        delta = self._s[4:6] if has_steering_lag(self._theta) else self._last_u
         return self._renderer.draw(self.vx, self._s[0], self._s[1], delta,
                                    np.array([fyf, fyr]), np.array([p.C_af * af, p.C_ar * ar]),
                                    self.t)
+
+    def _check_plant(self, plant: Plant) -> None:
+        if plant.options["vx"] != self.vx:
+            raise EnvError(f"the plant's vx = {plant.options['vx']!r} m/s differs from the env's "
+                           f"{self.vx!r} m/s; the speed is fixed per env")
+
+    @property
+    def mu(self) -> float:
+        """Road friction μ of the truth (-), read-only view of :attr:`plant`."""
+        return self._plant.true_params.mu
+
+    @property
+    def tire(self) -> MagicFormulaTire | None:
+        """The truth's Magic-Formula shape, ``None`` for linear tires (view of :attr:`plant`)."""
+        return self._plant.folded.extras["tire"]

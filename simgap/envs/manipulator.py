@@ -25,17 +25,22 @@ from simgap.envs._common import (
 )
 from simgap.envs.base import PlantEnv
 from simgap.envs.scenarios import QuinticReference, _sample_reference
+from simgap.errors import EnvError
 from simgap.models.base import validate_positive
+from simgap.models.effects import Plant
 from simgap.models.friction import FrictionParams, resolve_friction
 from simgap.models.manipulator import (
+    PLANT_SCHEMA,
     JointDisturbance,
     ManipulatorNominal,
     ManipulatorParams,
-    plant_array,
+    make_plant,
     plant_step,
     tau_d,
     true_residual,
 )
+
+FRICTION_DEFAULT = resolve_friction("thesis")
 
 
 class ManipulatorFrictionEnv(PlantEnv):
@@ -66,8 +71,15 @@ class ManipulatorFrictionEnv(PlantEnv):
     * ``"applied_action"``: the torque that acted (N·m, (2,)), i.e. the action after clipping
       (zeros at reset). Identifiers should use it as u when actions may leave the box.
 
+    The plant is one :class:`~simgap.models.effects.Plant` (``env.unwrapped.plant``): pass
+    ``plant=`` directly, or the keyword sugar ``friction``, ``disturbance``, ``true_params``,
+    which is turned into named effect instances. ``true_params``, ``friction``,
+    ``disturbance`` and ``plant_theta`` are read-only views of it.
+
     Args:
         render_mode: ``None`` or ``"rgb_array"`` (side view of the arm and its reference).
+        plant: the truth as a manipulator ``Plant``; excludes ``friction``, ``disturbance``
+            and ``true_params``.
         friction: preset name (``"thesis"``, ``"coulomb"``, ``"viscous"``, ``"stribeck"``,
             ``"none"``), a :class:`FrictionParams`, or ``None`` (no friction).
         disturbance: extra joint bias/spring torques of the plant.
@@ -83,8 +95,9 @@ class ManipulatorFrictionEnv(PlantEnv):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+    plant_schema = PLANT_SCHEMA
 
-    def __init__(self, render_mode: str | None = None, *,
+    def __init__(self, render_mode: str | None = None, *, plant: Plant | None = None,
                  friction: str | FrictionParams | None = "thesis",
                  disturbance: JointDisturbance | None = None,
                  true_params: ManipulatorParams | None = None,
@@ -99,24 +112,28 @@ class ManipulatorFrictionEnv(PlantEnv):
         self.torque_limit = check_pair("torque_limit", torque_limit, "N·m")
         self.init_noise = validate_positive("init_noise", init_noise, "rad", allow_zero=True)
         self.max_speed = validate_positive("max_speed", max_speed, "rad/s")
-        self.friction = resolve_friction(friction)
+        friction = resolve_friction(friction)
         if disturbance is not None and not isinstance(disturbance, JointDisturbance):
             raise ValueError(f"disturbance must be a JointDisturbance or None, got "
                              f"{disturbance!r}")
         for name, p in (("true_params", true_params), ("nominal_params", nominal_params)):
             if p is not None and not isinstance(p, ManipulatorParams):
                 raise ValueError(f"{name} must be ManipulatorParams or None, got {p!r}")
-        self.disturbance = disturbance
         self.nominal_params = nominal_params if nominal_params is not None \
             else ManipulatorParams()
-        self.true_params = true_params if true_params is not None else self.nominal_params
+        if plant is not None:
+            if (friction, disturbance, true_params) != (FRICTION_DEFAULT, None, None):
+                raise EnvError("give either plant= or friction/disturbance/true_params")
+        else:
+            plant = make_plant(true_params if true_params is not None else self.nominal_params,
+                               friction=friction, disturbance=disturbance)
+        self.plant = plant
         self.reference = reference if reference is not None else QuinticReference()
         if not callable(self.reference) and not hasattr(self.reference, "sample"):
             raise ValueError(f"reference must be callable, got {reference!r}")
         self.nominal_model = ManipulatorNominal(self.nominal_params, dt=self.dt)
 
         # Precomputed kernel arrays (the hot path allocates nothing it does not return).
-        self.plant_theta = plant_array(self.true_params, self.friction, self.disturbance)
         self._la_nom = np.ascontiguousarray(self.nominal_params.array)
         sample = getattr(self.reference, "sample", None)
         self._ref_sample = sample if sample is not None \
@@ -145,15 +162,15 @@ class ManipulatorFrictionEnv(PlantEnv):
             self._s = np.concatenate([q, ref[2:4]])
         self._last_u = np.zeros(2)
         s = self._s
-        g = true_residual(s, self._zero_u, self.plant_theta, self._la_nom)
-        tau = tau_d(s[:2], s[2:], self.plant_theta)
+        g = true_residual(s, self._zero_u, self._theta, self._la_nom)
+        tau = tau_d(s[:2], s[2:], self._theta)
         return s.copy(), self._info(g, tau, 0.0, ref, self._zero_u.copy())
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply joint torques (N·m) for dt seconds."""
         u = prepare_action(action, self._low, self._high, "joint torques (N·m)")
         s = self._s
-        theta = self.plant_theta
+        theta = self._theta
         g = true_residual(s, u, theta, self._la_nom)
         tau = tau_d(s[:2], s[2:], theta)
         s_new = plant_step(s, u, theta, self.dt, self.n_substeps)
@@ -179,3 +196,13 @@ class ManipulatorFrictionEnv(PlantEnv):
         """Side view of the arm (blue) and its reference (gray)."""
         ref = np.asarray(self._ref_sample(self.t), dtype=np.float64)
         return self._renderer.draw(self._s[:2], ref[:2], self.t, self._last_u)
+
+    @property
+    def friction(self) -> FrictionParams:
+        """The plant's joint friction (read-only view of :attr:`plant`)."""
+        return self._plant.folded.extras["friction"]
+
+    @property
+    def disturbance(self) -> JointDisturbance:
+        """The plant's joint bias/spring torques (read-only view of :attr:`plant`)."""
+        return self._plant.folded.extras["disturbance"]

@@ -1,6 +1,7 @@
 """Gymnasium registration of the simgap envs (idempotent: safe to call repeatedly).
 
-Entry points are strings, so registering does not import the env modules (or numba).
+The envs are those of the system registry (:data:`simgap.systems.SYSTEMS`) that declare an
+``env_id``; entry points are strings, so registering does not import the env modules.
 Episode limits (``TimeLimit`` via ``gym.make``; override with ``max_episode_steps=``):
 the manipulator 5,000 steps (10 s at 500 Hz), the bicycle 3,500 steps (35 s at 100 Hz, one
 default slalom).
@@ -10,18 +11,24 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-MANIPULATOR_ID = "simgap/ManipulatorFriction-v0"
-BICYCLE_ID = "simgap/BicycleTire-v0"
+from simgap.systems import SYSTEMS
 
-#: id -> (entry point, default max_episode_steps)
-ENV_SPECS: dict[str, tuple[str, int]] = {
-    MANIPULATOR_ID: ("simgap.envs.manipulator:ManipulatorFrictionEnv", 5000),
-    BICYCLE_ID: ("simgap.envs.bicycle:BicycleTireEnv", 3500),
-}
+MANIPULATOR_ID = SYSTEMS["manipulator2dof"].env_id
+BICYCLE_ID = SYSTEMS["bicycle"].env_id
+
+
+def env_specs() -> dict[str, tuple[str, int | None]]:
+    """Id -> (entry point, default max_episode_steps) of every registered system's env."""
+    return {s.env_id: (s.env_entry_point, s.max_episode_steps) for s in SYSTEMS.values()
+            if s.env_id and s.env_entry_point}
+
+
+#: The built-in envs (see :func:`env_specs` for user systems registered later).
+ENV_SPECS: dict[str, tuple[str, int | None]] = env_specs()
 
 
 def register_envs() -> None:
-    """Register every simgap env id that is not registered yet (no warning on repeats)."""
-    for env_id, (entry_point, max_steps) in ENV_SPECS.items():
+    """Register every system env id that is not registered yet (no warning on repeats)."""
+    for env_id, (entry_point, max_steps) in env_specs().items():
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_steps)

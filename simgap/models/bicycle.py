@@ -12,14 +12,28 @@ lag is on.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numba import njit
 
+from simgap.errors import ModelError
 from simgap.models.base import BaseNominalModel, validate_positive
+from simgap.models.effects import (
+    EffectInstance,
+    EffectSpec,
+    Folded,
+    Param,
+    Plant,
+    PlantSchema,
+    channel_index,
+)
 from simgap.models.integrators import rk4
+from simgap.models.slots import Slots
 from simgap.models.tires import MagicFormulaTire, linear_force, magic_formula, relaxation_rate
 
 PARAM_FIELDS = ("m", "Iz", "lf", "lr", "C_af", "C_ar", "g", "mu")
@@ -29,6 +43,21 @@ INPUT_NAMES = ("delta_f", "delta_r")
 INPUT_UNITS = ("rad", "rad")
 RECORDING_COLUMNS = ("t", "vx", "vy", "r", "delta_f", "delta_r")
 MIN_VX = 1.0  # m/s: below it the slip-angle model is singular
+
+#: Layout of the plant array: the vehicle parameters, then the plant's options.
+PLANT_FIELDS = PARAM_FIELDS + ("vx", "tire_model", "mf_C", "mf_E", "relax_f", "relax_r",
+                               "steer_lag", "ay0", "dr0")
+#: Slots of :attr:`BicycleParams.array`, of the nominal kernel array (params + vx) and of
+#: the plant array; the nominal array opens the plant array, so both share the slots below.
+PARAMS = Slots(*PARAM_FIELDS)
+NOMINAL = Slots(*PARAM_FIELDS, "vx")
+PLANT = Slots(*PLANT_FIELDS)
+assert PARAMS.prefix_of(NOMINAL) and NOMINAL.prefix_of(PLANT)
+# Module-level ints generated from the names (numba freezes them as constants).
+M, IZ, LF, LR, C_AF, C_AR, G, MU = (PLANT[n] for n in PARAM_FIELDS)
+VX, TIRE_MODEL, MF_C, MF_E = PLANT["vx"], PLANT["tire_model"], PLANT["mf_C"], PLANT["mf_E"]
+RELAX_F, RELAX_R, STEER_LAG = PLANT["relax_f"], PLANT["relax_r"], PLANT["steer_lag"]
+AY0, DR0 = PLANT["ay0"], PLANT["dr0"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -96,63 +125,58 @@ def slip_angles(vy, r, delta_f, delta_r, vx, lf, lr):  # pragma: no cover - comp
 @njit(cache=True)
 def axle_loads(pa):  # pragma: no cover - compiled
     """Static axle loads Fz_f = m·g·lr/L, Fz_r = m·g·lf/L (N)."""
-    big_l = pa[2] + pa[3]
-    return pa[0] * pa[6] * pa[3] / big_l, pa[0] * pa[6] * pa[2] / big_l
+    big_l = pa[LF] + pa[LR]
+    return pa[M] * pa[G] * pa[LR] / big_l, pa[M] * pa[G] * pa[LF] / big_l
 
 
 @njit(cache=True)
 def body_derivative(vy, r, fyf, fyr, vx, pa):  # pragma: no cover - compiled
     """Force balance eq. 2.4-2.5: dvy/dt = (Fyf+Fyr)/m − vx·r, dr/dt = (lf·Fyf − lr·Fyr)/Iz."""
-    return (fyf + fyr) / pa[0] - vx * r, (pa[2] * fyf - pa[3] * fyr) / pa[1]
+    return (fyf + fyr) / pa[M] - vx * r, (pa[LF] * fyf - pa[LR] * fyr) / pa[IZ]
 
 
 @njit(cache=True)
 def nominal_derivative(x, u, theta):  # pragma: no cover - compiled
     """Nominal f(x, u) = A x + B u (linear tires); theta = params array + [vx]."""
-    vx = theta[8]
-    af, ar = slip_angles(x[0], x[1], u[0], u[1], vx, theta[2], theta[3])
-    dvy, dr = body_derivative(x[0], x[1], linear_force(af, theta[4]), linear_force(ar, theta[5]),
-                              vx, theta)
+    vx = theta[VX]
+    af, ar = slip_angles(x[0], x[1], u[0], u[1], vx, theta[LF], theta[LR])
+    dvy, dr = body_derivative(x[0], x[1], linear_force(af, theta[C_AF]),
+                              linear_force(ar, theta[C_AR]), vx, theta)
     out = np.empty(2)
     out[0] = dvy
     out[1] = dr
     return out
 
 
-#: Layout of the plant array after the 8 vehicle parameters.
-PLANT_FIELDS = PARAM_FIELDS + ("vx", "tire_model", "mf_C", "mf_E", "relax_f", "relax_r",
-                               "steer_lag", "ay0", "dr0")
-
-
 @njit(cache=True)
 def plant_forces(s, u, theta):  # pragma: no cover - compiled
     """True axle forces (N) and the steady-state slip angles (rad) of the plant."""
-    vx, tire, c_mf, e_mf = theta[8], theta[9], theta[10], theta[11]
-    relax_f, relax_r, lag = theta[12], theta[13], theta[14]
+    vx, tire, c_mf, e_mf = theta[VX], theta[TIRE_MODEL], theta[MF_C], theta[MF_E]
+    relax_f, relax_r, lag = theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
     d_f = s[4] if lag > 0.0 else u[0]
     d_r = s[5] if lag > 0.0 else u[1]
-    af_ss, ar_ss = slip_angles(s[0], s[1], d_f, d_r, vx, theta[2], theta[3])
+    af_ss, ar_ss = slip_angles(s[0], s[1], d_f, d_r, vx, theta[LF], theta[LR])
     af = s[2] if relax_f > 0.0 else af_ss
     ar = s[3] if relax_r > 0.0 else ar_ss
     if tire > 0.5:
         fzf, fzr = axle_loads(theta)
-        fyf = magic_formula(af, theta[4], fzf, theta[7], c_mf, e_mf)
-        fyr = magic_formula(ar, theta[5], fzr, theta[7], c_mf, e_mf)
+        fyf = magic_formula(af, theta[C_AF], fzf, theta[MU], c_mf, e_mf)
+        fyr = magic_formula(ar, theta[C_AR], fzr, theta[MU], c_mf, e_mf)
     else:
-        fyf = linear_force(af, theta[4])
-        fyr = linear_force(ar, theta[5])
+        fyf = linear_force(af, theta[C_AF])
+        fyr = linear_force(ar, theta[C_AR])
     return fyf, fyr, af_ss, ar_ss
 
 
 @njit(cache=True)
 def plant_derivative(s, u, theta):  # pragma: no cover - compiled
     """True dynamics of the 6-entry plant state (see the module docstring)."""
-    vx, relax_f, relax_r, lag = theta[8], theta[12], theta[13], theta[14]
+    vx, relax_f, relax_r, lag = theta[VX], theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
     fyf, fyr, af_ss, ar_ss = plant_forces(s, u, theta)
     dvy, dr = body_derivative(s[0], s[1], fyf, fyr, vx, theta)
     out = np.zeros(6)
-    out[0] = dvy + theta[15]
-    out[1] = dr + theta[16]
+    out[0] = dvy + theta[AY0]
+    out[1] = dr + theta[DR0]
     if relax_f > 0.0:
         out[2] = relaxation_rate(s[2], af_ss, vx, relax_f)
     if relax_r > 0.0:
@@ -219,6 +243,16 @@ def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | No
     if not np.all(np.isfinite(extra)):
         raise ValueError(f"plant options must be finite, got {extra!r}")
     return np.concatenate([params.array, np.array(extra, dtype=np.float64)])
+
+
+def has_lag_states(theta: np.ndarray) -> bool:
+    """True when a plant array integrates tire-relaxation or steering-lag states."""
+    return bool(theta[RELAX_F] > 0.0 or theta[RELAX_R] > 0.0 or theta[STEER_LAG] > 0.0)
+
+
+def has_steering_lag(theta: np.ndarray) -> bool:
+    """True when the road-wheel angle of a plant array lags the command (plant state 4:6)."""
+    return bool(theta[STEER_LAG] > 0.0)
 
 
 def system_matrices(params: BicycleParams, vx: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -302,3 +336,141 @@ class BicycleNominal(BaseNominalModel):
     def with_speed(self, vx: float) -> BicycleNominal:
         """The same model at another longitudinal speed (m/s)."""
         return BicycleNominal(self.params, vx=vx, dt=self.dt)
+
+
+# --------------------------------------------------------------------------- plant
+AXLES = ("front_axle", "rear_axle")
+_ANY = (-math.inf, math.inf)
+_NONNEG = (0.0, math.inf)
+
+
+def _saturation(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    for a in (0, 1) if j is None else (j,):
+        acc["mu"][a] = v["mu"]
+
+
+def _stiffness(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    key = ("C_af", "C_ar")[j]
+    acc["kw"][key] = acc["kw"][key] * v["ratio"]
+
+
+def _scale(key: str) -> Callable[[dict, int | None, Mapping[str, float]], None]:
+    def write(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+        acc["kw"][key] = acc["kw"][key] * v["ratio"]
+    return write
+
+
+def _value(key: str, name: str) -> Callable[[dict, int | None, Mapping[str, float]], None]:
+    def write(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+        acc[key] = v[name]
+    return write
+
+
+def _relaxation(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    for a in (0, 1) if j is None else (j,):
+        acc["relax"][a] += v["length"]
+
+
+#: The vehicle's effect vocabulary (``spec/diagnosis.md``) plus the injection-only
+#: ``tire_relaxation``, in fold order.
+VOCABULARY = (
+    EffectSpec(name="tire_saturation", label="tire saturation", scope="channel",
+               all_channels=True,
+               params=(Param(name="mu", unit="-", bounds=(1e-9, math.inf), inject=(0.5, 0.8)),),
+               write=_saturation),
+    EffectSpec(name="cornering_stiffness", label="cornering stiffness off", scope="channel",
+               params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
+                             inject=(0.7, 0.85)),),
+               write=_stiffness),
+    EffectSpec(name="lateral_bias", label="lateral bias", scope="system",
+               params=(Param(name="ay0", unit="m/s²", bounds=_ANY, inject=(0.2, 0.5),
+                             signed=True),),
+               write=_value("lateral_bias", "ay0")),
+    EffectSpec(name="yaw_bias", label="yaw bias", scope="system",
+               params=(Param(name="dr0", unit="rad/s²", bounds=_ANY, inject=(0.08, 0.2),
+                             signed=True),),
+               write=_value("yaw_bias", "dr0")),
+    EffectSpec(name="mass_mismatch", label="mass mismatch", scope="system",
+               params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
+                             inject=(1.1, 1.25)),),
+               write=_scale("m")),
+    EffectSpec(name="yaw_inertia_mismatch", label="yaw inertia mismatch", scope="system",
+               params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
+                             inject=(1.15, 1.3)),),
+               write=_scale("Iz")),
+    EffectSpec(name="steering_lag", label="steering lag", scope="channel", all_channels=True,
+               params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
+               write=_value("steering_lag", "tau"), needs=("tire_saturation",)),
+    EffectSpec(name="tire_relaxation", label="tire relaxation", scope="channel",
+               all_channels=True, vocabulary=False,
+               params=(Param(name="length", unit="m", bounds=_NONNEG),),
+               write=_relaxation),
+)
+
+
+def _fold(plant: Plant) -> Folded:
+    """Plant → effective vehicle parameters, tire, options → kernel array :data:`PLANT`.
+
+    The kernel has one road μ: where the axles' μ differ, their mean acts.
+    """
+    p = plant.params
+    acc: dict[str, Any] = {"kw": {f: getattr(p, f) for f in PARAM_FIELDS}, "mu": [None, None],
+                           "steering_lag": 0.0, "lateral_bias": 0.0, "yaw_bias": 0.0,
+                           "relax": [0.0, 0.0]}
+    for e in plant.effects:
+        plant.schema.effect(e.name).write(acc, channel_index(AXLES, e.channel), e.params)
+    mus = [m for m in acc["mu"] if m is not None]
+    if mus:
+        acc["kw"]["mu"] = float(np.mean(mus))
+    params = p if acc["kw"] == {f: getattr(p, f) for f in PARAM_FIELDS} \
+        else BicycleParams(**acc["kw"])
+    opts = plant.options
+    tire = MagicFormulaTire(C=opts["mf_C"], E=opts["mf_E"]) if mus else None
+    theta = plant_array(params, opts["vx"], tire=tire, relaxation_length=tuple(acc["relax"]),
+                        steering_lag=acc["steering_lag"], lateral_bias=acc["lateral_bias"],
+                        yaw_bias=acc["yaw_bias"])
+    return Folded(params, theta, {"tire": tire, "axle_mu": tuple(acc["mu"]),
+                                  "steering_lag": acc["steering_lag"],
+                                  "lateral_bias": acc["lateral_bias"],
+                                  "yaw_bias": acc["yaw_bias"], "relax": tuple(acc["relax"])})
+
+
+_MF = MagicFormulaTire()
+#: The vehicle's plant declaration; ``PLANT_SCHEMA.plant(params, effects, vx=...)``.
+PLANT_SCHEMA = PlantSchema(system="bicycle", params_cls=BicycleParams, channels=AXLES,
+                           vocabulary=VOCABULARY,
+                           options={"vx": 20.0, "mf_C": _MF.C, "mf_E": _MF.E}, fold=_fold)
+
+
+def make_plant(params: BicycleParams | None = None, vx: float = 20.0, *,
+               tire: MagicFormulaTire | None = None,
+               relaxation_length: float | tuple[float, float] = 0.0,
+               steering_lag: float = 0.0, lateral_bias: float = 0.0, yaw_bias: float = 0.0,
+               effects: tuple[EffectInstance, ...] = ()) -> Plant:
+    """The vehicle's :class:`Plant` from the env's keyword form.
+
+    The keywords mean what :func:`plant_array`'s do; μ is ``params.mu`` where ``tire``
+    saturates.
+    """
+    p = params if params is not None else BicycleParams()
+    relax = (relaxation_length, relaxation_length) if np.isscalar(relaxation_length) \
+        else tuple(relaxation_length)
+    if len(relax) != 2:
+        raise ModelError(f"relaxation_length needs 1 or 2 values, got {relaxation_length!r}")
+    inst: list[EffectInstance] = []
+    if tire is not None:
+        inst.append(EffectInstance("tire_saturation", None, {"mu": p.mu}))
+    for a, length in zip(AXLES, relax, strict=True):
+        validate_positive("relaxation_length", length, allow_zero=True)
+        if length != 0.0:
+            inst.append(EffectInstance("tire_relaxation", a, {"length": float(length)}))
+    validate_positive("steering_lag", steering_lag, allow_zero=True)
+    for name, key, v in (("steering_lag", "tau", steering_lag),
+                         ("lateral_bias", "ay0", lateral_bias), ("yaw_bias", "dr0", yaw_bias)):
+        if not math.isfinite(float(v)):
+            raise ModelError(f"{name} must be finite, got {v!r}")
+        if float(v) != 0.0:
+            inst.append(EffectInstance(name, None, {key: float(v)}))
+    mf = tire if tire is not None else MagicFormulaTire()
+    return PLANT_SCHEMA.plant(p, tuple(inst) + tuple(effects), vx=check_vx(vx), mf_C=mf.C,
+                              mf_E=mf.E)

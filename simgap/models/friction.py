@@ -6,6 +6,7 @@ opposes motion; they are numba-compiled and work on scalars and arrays alike.
 presets an env accepts (``friction="thesis"``).
 
     tau_friction = coulomb(dq, fc, sigma) + viscous(dq, b) + stribeck(dq, fs, fc, vs, sigma)
+                   + quadratic(dq, c2)
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ import numpy as np
 from numba import njit
 
 #: Layout of one joint's row in the friction array passed to compiled kernels.
-FRICTION_FIELDS = ("fc", "sigma", "b", "fs", "vs")
+FRICTION_FIELDS = ("fc", "sigma", "b", "fs", "vs", "c2")
+FC, SIGMA, B, FS, VS, C2 = (FRICTION_FIELDS.index(n) for n in FRICTION_FIELDS)
 
 
 @njit(cache=True)
@@ -42,11 +44,22 @@ def stribeck(dq, fs, fc, vs, sigma):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def joint_friction(dq, fc, sigma, b, fs, vs):  # pragma: no cover - compiled
-    """Total friction torque (N·m) of one joint: Coulomb + viscous (+ Stribeck if fs ≠ fc)."""
+def quadratic(dq, c2):  # pragma: no cover - compiled
+    """Quadratic (velocity-squared) drag c2·dq·|dq| (N·m); c2 in N·m·s²/rad²."""
+    return c2 * dq * np.abs(dq)
+
+
+@njit(cache=True)
+def joint_friction(dq, fc, sigma, b, fs, vs, c2=0.0):  # pragma: no cover - compiled
+    """Total friction torque (N·m) of one joint.
+
+    Coulomb + viscous, + Stribeck if fs ≠ fc, + quadratic drag if c2 ≠ 0.
+    """
     tau = coulomb(dq, fc, sigma) + viscous(dq, b)
     if fs != fc:
         tau += stribeck(dq, fs, fc, vs, sigma)
+    if c2 != 0.0:
+        tau += quadratic(dq, c2)
     return tau
 
 
@@ -55,7 +68,8 @@ def friction_torque(dq, fa):  # pragma: no cover - compiled
     """Total friction torque per joint (N·m) for velocities ``dq`` and rows ``fa`` (n×5)."""
     out = np.empty(dq.shape[0])
     for i in range(dq.shape[0]):
-        out[i] = joint_friction(dq[i], fa[i, 0], fa[i, 1], fa[i, 2], fa[i, 3], fa[i, 4])
+        out[i] = joint_friction(dq[i], fa[i, FC], fa[i, SIGMA], fa[i, B], fa[i, FS], fa[i, VS],
+                                fa[i, C2])
     return out
 
 
@@ -82,6 +96,7 @@ class FrictionParams:
         fs: static (breakaway) torque for the Stribeck term (N·m); ``None`` means fs = fc,
             i.e. no Stribeck effect.
         vs: Stribeck velocity (rad/s).
+        c2: quadratic drag coefficient (N·m·s²/rad²).
     """
 
     fc: float | tuple[float, float] = 0.1
@@ -89,23 +104,28 @@ class FrictionParams:
     b: float | tuple[float, float] = 0.5
     fs: float | tuple[float, float] | None = None
     vs: float | tuple[float, float] = 0.05
+    c2: float | tuple[float, float] = 0.0
 
     def __post_init__(self) -> None:
         _pair("fc", self.fc, positive=False)
         _pair("sigma", self.sigma, positive=True)
         _pair("b", self.b, positive=False)
         _pair("vs", self.vs, positive=True)
+        _pair("c2", self.c2, positive=False)
         if self.fs is not None:
             _pair("fs", self.fs, positive=False)
 
     @cached_property
     def array(self) -> np.ndarray:
-        """Kernel array, shape (2, 5), columns :data:`FRICTION_FIELDS`."""
+        """Kernel array, shape (2, len(FRICTION_FIELDS)), columns :data:`FRICTION_FIELDS`."""
         fc = _pair("fc", self.fc, positive=False)
         fs = fc if self.fs is None else _pair("fs", self.fs, positive=False)
-        cols = [fc, _pair("sigma", self.sigma, positive=True), _pair("b", self.b, positive=False),
-                fs, _pair("vs", self.vs, positive=True)]
-        return np.ascontiguousarray(np.array(cols, dtype=np.float64).T)
+        cols = {"fc": fc, "sigma": _pair("sigma", self.sigma, positive=True),
+                "b": _pair("b", self.b, positive=False), "fs": fs,
+                "vs": _pair("vs", self.vs, positive=True),
+                "c2": _pair("c2", self.c2, positive=False)}
+        return np.ascontiguousarray(np.array([cols[n] for n in FRICTION_FIELDS],
+                                             dtype=np.float64).T)
 
     def torque(self, dq: np.ndarray) -> np.ndarray:
         """Friction torque (N·m) for joint velocities ``dq`` (rad/s), shape (2,)."""

@@ -13,15 +13,28 @@ flat link array (see :attr:`ManipulatorParams.array`). Two state forms are used:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 from numba import njit
 
+from simgap.models import friction as fr
 from simgap.models.base import MechanicalNominalModel, validate_positive
-from simgap.models.friction import FrictionParams, joint_friction
+from simgap.models.effects import (
+    EffectInstance,
+    EffectSpec,
+    Folded,
+    Param,
+    Plant,
+    PlantSchema,
+    channel_index,
+)
+from simgap.models.friction import FRICTION_FIELDS, FrictionParams, joint_friction
 from simgap.models.integrators import rk4
+from simgap.models.slots import Slots
 
 #: Layout of :attr:`ManipulatorParams.array`.
 LINK_FIELDS = ("m1", "lc1", "I1", "m2", "lc2", "I2", "l1", "Im1", "Im2", "g")
@@ -32,6 +45,19 @@ OBS_UNITS = ("rad", "rad", "rad/s", "rad/s")
 INPUT_NAMES = ("tau1", "tau2")
 INPUT_UNITS = ("N·m", "N·m")
 RECORDING_COLUMNS = ("t", "q1", "q2", "dq1", "dq2", "tau1", "tau2")
+N_JOINTS = 2
+#: Per-joint bias/spring fields of :attr:`JointDisturbance.array` (tau0 + k·(q − q0)).
+DISTURBANCE_FIELDS = ("tau0", "k", "q0")
+#: Layout of the plant array: link parameters, per-joint friction rows, per-joint
+#: bias/spring rows. Every kernel slot below is generated from these names.
+LINK = Slots(*LINK_FIELDS)
+PLANT = Slots(*LINK_FIELDS, ("friction", FRICTION_FIELDS, N_JOINTS),
+              ("disturbance", DISTURBANCE_FIELDS, N_JOINTS))
+assert LINK.prefix_of(PLANT)
+M1, LC1, I1, M2, LC2, I2, L1, IM1, IM2, G = (LINK[n] for n in LINK_FIELDS)
+FRICTION, FRICTION_STRIDE = PLANT["friction"], PLANT.stride("friction")
+DISTURBANCE, DISTURBANCE_STRIDE = PLANT["disturbance"], PLANT.stride("disturbance")
+TAU0, K, Q0 = (PLANT.field("disturbance", n) for n in DISTURBANCE_FIELDS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,9 +102,10 @@ class ManipulatorParams:
         m2 = self.m + self.payload
         lc2 = (self.m * self.lc + self.payload * self.l) / m2
         i2 = self.I + self.m * (self.lc - lc2) ** 2 + self.payload * (self.l - lc2) ** 2
-        return np.array([self.m, self.lc, self.I, m2, lc2, i2, self.l,
-                         self.Im + self.extra_inertia[0], self.Im + self.extra_inertia[1],
-                         self.g], dtype=np.float64)
+        vals = {"m1": self.m, "lc1": self.lc, "I1": self.I, "m2": m2, "lc2": lc2, "I2": i2,
+                "l1": self.l, "Im1": self.Im + self.extra_inertia[0],
+                "Im2": self.Im + self.extra_inertia[1], "g": self.g}
+        return np.array([vals[n] for n in LINK_FIELDS], dtype=np.float64)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -100,8 +127,9 @@ class JointDisturbance:
 
     @cached_property
     def array(self) -> np.ndarray:
-        """Kernel array, shape (2, 3): columns tau0, k, q0."""
-        return np.ascontiguousarray(np.array([self.tau0, self.k, self.q0], dtype=np.float64).T)
+        """Kernel array, shape (2, 3): columns :data:`DISTURBANCE_FIELDS`."""
+        return np.ascontiguousarray(np.array([getattr(self, n) for n in DISTURBANCE_FIELDS],
+                                             dtype=np.float64).T)
 
 
 # --------------------------------------------------------------------------- kernels
@@ -109,8 +137,8 @@ class JointDisturbance:
 # plant derivative (the env's hot path: 80 evaluations per 2 ms step) are built on them.
 @njit(cache=True, inline="always")
 def _mass_entries(q2, la):  # pragma: no cover - compiled
-    m1, lc1, i1, m2, lc2, i2, l1, im1, im2 = la[0], la[1], la[2], la[3], la[4], la[5], la[6], \
-        la[7], la[8]
+    m1, lc1, i1, m2, lc2, i2, l1, im1, im2 = la[M1], la[LC1], la[I1], la[M2], la[LC2], la[I2], \
+        la[L1], la[IM1], la[IM2]
     c2 = np.cos(q2)
     m11 = m1 * lc1**2 + i1 + m2 * (l1**2 + lc2**2 + 2.0 * l1 * lc2 * c2) + i2 + im1
     m12 = m2 * (lc2**2 + l1 * lc2 * c2) + i2
@@ -120,13 +148,13 @@ def _mass_entries(q2, la):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _coriolis_entries(q2, dq1, dq2, la):  # pragma: no cover - compiled
-    h = -la[3] * la[6] * la[4] * np.sin(q2)
+    h = -la[M2] * la[L1] * la[LC2] * np.sin(q2)
     return h * dq2, h * (dq1 + dq2), -h * dq1
 
 
 @njit(cache=True, inline="always")
 def _gravity_entries(q1, q2, la):  # pragma: no cover - compiled
-    m1, lc1, m2, lc2, l1, g = la[0], la[1], la[3], la[4], la[6], la[9]
+    m1, lc1, m2, lc2, l1, g = la[M1], la[LC1], la[M2], la[LC2], la[L1], la[G]
     c12 = np.cos(q1 + q2)
     return (m1 * lc1 + m2 * l1) * g * np.cos(q1) + m2 * lc2 * g * c12, m2 * lc2 * g * c12
 
@@ -168,7 +196,7 @@ def gravity_vector(q, la):  # pragma: no cover - compiled
 @njit(cache=True)
 def potential_energy(q, la):  # pragma: no cover - compiled
     """Gravitational potential energy V(q) (J); G = ∂V/∂q."""
-    m1, lc1, m2, lc2, l1, g = la[0], la[1], la[3], la[4], la[6], la[9]
+    m1, lc1, m2, lc2, l1, g = la[M1], la[LC1], la[M2], la[LC2], la[L1], la[G]
     return (m1 * lc1 + m2 * l1) * g * np.sin(q[0]) + m2 * lc2 * g * np.sin(q[0] + q[1])
 
 
@@ -185,10 +213,11 @@ def solve2(a, b):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _tau_d_joint(i, qi, dqi, theta):  # pragma: no cover - compiled
     """Left-out torque at joint i from the plant array (friction row, then bias/spring)."""
-    f = 10 + 5 * i
-    d = 20 + 3 * i
-    return joint_friction(dqi, theta[f], theta[f + 1], theta[f + 2], theta[f + 3],
-                          theta[f + 4]) + theta[d] + theta[d + 1] * (qi - theta[d + 2])
+    f = FRICTION + FRICTION_STRIDE * i
+    d = DISTURBANCE + DISTURBANCE_STRIDE * i
+    return joint_friction(dqi, theta[f + fr.FC], theta[f + fr.SIGMA], theta[f + fr.B],
+                          theta[f + fr.FS], theta[f + fr.VS], theta[f + fr.C2]) \
+        + theta[d + TAU0] + theta[d + K] * (qi - theta[d + Q0])
 
 
 @njit(cache=True)
@@ -267,7 +296,8 @@ def plant_acceleration(s, u, theta):  # pragma: no cover - compiled
 def plant_derivative(s, u, theta):  # pragma: no cover - compiled
     """True dynamics in the simulation state s = (q, dq): M ddq + C dq + G + tau_d = u.
 
-    ``theta`` is :func:`plant_array`: 10 link parameters, 2×5 friction, 2×3 bias/spring.
+    ``theta`` is :func:`plant_array` (layout :data:`PLANT`: link parameters, per-joint
+    friction rows, per-joint bias/spring rows).
     """
     a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
     out = np.empty(4)
@@ -303,10 +333,12 @@ def true_residual(s, u, theta, la_nom):  # pragma: no cover - compiled
 
 def plant_array(params: ManipulatorParams, friction: FrictionParams | None = None,
                 disturbance: JointDisturbance | None = None) -> np.ndarray:
-    """Flat array for :func:`plant_derivative`: link params, friction, disturbance."""
+    """Flat array for :func:`plant_derivative`, layout :data:`PLANT`."""
     fa = (friction if friction is not None else FrictionParams(fc=0.0, b=0.0)).array
     da = (disturbance if disturbance is not None else JointDisturbance()).array
-    return np.concatenate([params.array, fa.ravel(), da.ravel()])
+    out = np.concatenate([params.array, fa.ravel(), da.ravel()])
+    assert out.shape == (PLANT.size,)
+    return out
 
 
 def state_derivative(x: np.ndarray, u: np.ndarray, params: ManipulatorParams) -> np.ndarray:
@@ -386,3 +418,169 @@ class ManipulatorNominal(MechanicalNominalModel):
     def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """State residual g (…, 4) → left-out joint torque tau_d = −g[2:] (N·m)."""
         return -np.asarray(g, dtype=np.float64)[..., 2:]
+
+
+# --------------------------------------------------------------------------- plant
+JOINTS = ("joint1", "joint2")
+DEFAULT_SIGMA = 6.67e-4  # rad/s: the thesis' Coulomb smoothing velocity (Table 4.2)
+_ANY = (-math.inf, math.inf)
+_NONNEG = (0.0, math.inf)
+
+
+def _start(plant: Plant) -> dict:
+    p = plant.params
+    return {"fc": [0.0, 0.0], "b": [0.0, 0.0], "fs": [None, None], "vs": [0.05, 0.05],
+            "c2": [0.0, 0.0],
+            "tau0": [0.0, 0.0], "k": [0.0, 0.0], "q0": [0.0, 0.0],
+            "payload": p.payload, "extra": list(p.extra_inertia), "g": p.g}
+
+
+def _set(key: str, name: str) -> Callable[[dict, int | None, Mapping[str, float]], None]:
+    def write(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+        acc[key][j] = v[name]
+    return write
+
+
+def _stribeck(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    acc["fs"][j], acc["vs"][j] = v["Fs"], v["vs"]
+
+
+def _bias(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    acc["tau0"][j] += v["tau0"]
+
+
+def _spring(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    acc["k"][j], acc["q0"][j] = v["k"], v["q0"]
+
+
+def _payload(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    acc["payload"] = v["mp"]
+
+
+def _gravity(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    acc["g"] = acc["g0"] * (1.0 + v["dG"])
+
+
+#: The arm's effect vocabulary (``spec/diagnosis.md``), in fold order.
+VOCABULARY = (
+    EffectSpec(name="coulomb_friction", label="Coulomb friction", scope="channel",
+               params=(Param(name="Fc", unit="{effort}", bounds=_NONNEG, inject=(0.05, 0.3)),),
+               write=_set("fc", "Fc")),
+    EffectSpec(name="viscous_friction", label="viscous friction", scope="channel",
+               params=(Param(name="b", unit="{effort}·s/{position}", bounds=_NONNEG,
+                             inject=(0.05, 0.5)),),
+               write=_set("b", "b")),
+    EffectSpec(name="stribeck_friction", label="Stribeck friction", scope="channel",
+               params=(Param(name="Fs", unit="{effort}", bounds=_NONNEG, inject=(0.2, 0.4)),
+                       Param(name="vs", unit="{position}/s", bounds=(1e-9, math.inf),
+                             inject=(0.07, 0.3))),
+               write=_stribeck, needs=("coulomb_friction",)),
+    EffectSpec(name="quadratic_drag", label="quadratic drag", scope="channel",
+               params=(Param(name="c", unit="{effort}·s²/{position}²", bounds=_NONNEG,
+                             inject=(0.01, 0.1)),),
+               write=_set("c2", "c")),
+    EffectSpec(name="torque_bias", label="torque bias", scope="channel",
+               params=(Param(name="tau0", unit="{effort}", bounds=_ANY, inject=(0.05, 0.3),
+                             signed=True),),
+               write=_bias),
+    EffectSpec(name="spring", label="spring", scope="channel",
+               params=(Param(name="k", unit="{effort}/{position}", bounds=_ANY,
+                             inject=(0.5, 3.0)),
+                       Param(name="q0", unit="{position}", bounds=_ANY, inject=(-0.5, 0.5),
+                             default=0.0)),
+               write=_spring),
+    EffectSpec(name="payload_mass", label="payload mass", scope="system",
+               params=(Param(name="mp", unit="kg", bounds=_NONNEG, inject=(0.1, 0.5)),),
+               write=_payload),
+    EffectSpec(name="gravity_mismatch", label="gravity mismatch", scope="system",
+               params=(Param(name="dG", unit="-", bounds=(-1.0, math.inf), inject=(0.02, 0.1),
+                             signed=True),),
+               write=_gravity),
+    EffectSpec(name="inertia_mismatch", label="extra inertia", scope="channel",
+               params=(Param(name="dI", unit="kg·m²", bounds=_NONNEG, inject=(0.015, 0.04)),),
+               write=_set("extra", "dI")),
+)
+
+
+def _fold(plant: Plant) -> Folded:
+    """Plant → (rigid-body params, friction, bias/spring) → kernel array :data:`PLANT`."""
+    p = plant.params
+    acc = _start(plant)
+    acc["g0"] = p.g
+    for e in plant.effects:
+        spec = plant.schema.effect(e.name)
+        spec.write(acc, channel_index(JOINTS, e.channel), e.params)
+    sig = plant.options["coulomb_sigma"]
+    sig = (float(sig),) * 2 if np.isscalar(sig) else tuple(float(s) for s in sig)
+    fs = tuple(acc["fs"][i] if acc["fs"][i] is not None else acc["fc"][i] for i in range(2))
+    friction = FrictionParams(fc=tuple(acc["fc"]), b=tuple(acc["b"]), fs=fs,
+                              vs=tuple(acc["vs"]), sigma=sig, c2=tuple(acc["c2"]))
+    disturbance = JointDisturbance(tau0=tuple(acc["tau0"]), k=tuple(acc["k"]),
+                                   q0=tuple(acc["q0"]))
+    params = p
+    if (acc["g"], acc["payload"], tuple(acc["extra"])) != (p.g, p.payload,
+                                                           tuple(p.extra_inertia)):
+        params = replace(p, g=acc["g"], payload=acc["payload"],
+                         extra_inertia=tuple(acc["extra"]))
+    return Folded(params, plant_array(params, friction, disturbance),
+                  {"friction": friction, "disturbance": disturbance})
+
+
+#: The arm's plant declaration; ``PLANT_SCHEMA.plant(params, effects)`` makes a Plant.
+PLANT_SCHEMA = PlantSchema(system="manipulator2dof", params_cls=ManipulatorParams,
+                           channels=JOINTS, vocabulary=VOCABULARY,
+                           options={"coulomb_sigma": (DEFAULT_SIGMA, DEFAULT_SIGMA)},
+                           fold=_fold)
+
+
+def friction_effects(friction: FrictionParams | None) -> tuple[EffectInstance, ...]:
+    """Named per-joint instances of a :class:`FrictionParams` (zero terms left out).
+
+    The smoothing velocity sigma is a plant option (``coulomb_sigma``), not an effect. The
+    Stribeck velocity of a joint without a Stribeck term does not act and is dropped.
+    """
+    if friction is None:
+        return ()
+    fa = friction.array
+    out: list[EffectInstance] = []
+    for j, ch in enumerate(JOINTS):
+        fc, b, fs, vs, c2 = (float(fa[j, c]) for c in (fr.FC, fr.B, fr.FS, fr.VS, fr.C2))
+        if fc != 0.0 or fs != fc:
+            out.append(EffectInstance("coulomb_friction", ch, {"Fc": fc}))
+        if b != 0.0:
+            out.append(EffectInstance("viscous_friction", ch, {"b": b}))
+        if fs != fc:
+            out.append(EffectInstance("stribeck_friction", ch, {"Fs": fs, "vs": vs}))
+        if c2 != 0.0:
+            out.append(EffectInstance("quadratic_drag", ch, {"c": c2}))
+    return tuple(out)
+
+
+def disturbance_effects(disturbance: JointDisturbance | None) -> tuple[EffectInstance, ...]:
+    """Named per-joint torque-bias and spring instances of a :class:`JointDisturbance`."""
+    if disturbance is None:
+        return ()
+    out: list[EffectInstance] = []
+    for j, ch in enumerate(JOINTS):
+        if disturbance.tau0[j] != 0.0:
+            out.append(EffectInstance("torque_bias", ch, {"tau0": float(disturbance.tau0[j])}))
+        if disturbance.k[j] != 0.0 or disturbance.q0[j] != 0.0:
+            out.append(EffectInstance("spring", ch, {"k": float(disturbance.k[j]),
+                                                     "q0": float(disturbance.q0[j])}))
+    return tuple(out)
+
+
+def make_plant(params: ManipulatorParams | None = None, *,
+               friction: FrictionParams | None = None,
+               disturbance: JointDisturbance | None = None,
+               effects: tuple[EffectInstance, ...] = ()) -> Plant:
+    """The arm's :class:`Plant` from the envs' keyword form (friction, disturbance) and effects.
+
+    The kernel array equals ``plant_array(params, friction, disturbance)`` slot for slot
+    wherever a slot acts (a test pins it).
+    """
+    sigma = (DEFAULT_SIGMA, DEFAULT_SIGMA) if friction is None else \
+        tuple(float(s) for s in friction.array[:, fr.SIGMA])
+    return PLANT_SCHEMA.plant(params, friction_effects(friction)
+                              + disturbance_effects(disturbance) + tuple(effects),
+                              coulomb_sigma=sigma)

@@ -48,8 +48,18 @@ from simgap.identifiers import Identifier, IdentifierConfig, IdentifierError, ma
 from simgap.identifiers.config import check_kind, preset
 from simgap.models.base import NominalModel, wrap_angle
 
-#: Map from ``NominalModel.name`` to the thesis preset used when ``config`` is None.
-PRESET_FOR_MODEL = {"manipulator2dof": "manipulator", "bicycle": "bicycle"}
+
+def __getattr__(name: str) -> Any:
+    if name == "PRESET_FOR_MODEL":  # deprecated: the presets live in the system registry
+        import warnings
+
+        from simgap.systems import SYSTEMS
+
+        warnings.warn("PRESET_FOR_MODEL is deprecated; use "
+                      "simgap.systems.get_system(name).identifier_preset", DeprecationWarning,
+                      stacklevel=2)
+        return {n: s.identifier_preset for n, s in SYSTEMS.items() if s.identifier_preset}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _vec(a: Any) -> np.ndarray:

@@ -48,8 +48,8 @@ def saturation_fit(delta, af, ar, params: BicycleParams, c_shape: float = 1.3,
     """Fit mu of the spec's Magic Formula (shape C, E fixed) to both axles' residual."""
     fzf, fzr = params.axle_loads()
 
-    def resid(theta):
-        mu = theta[0]
+    def resid(x):
+        (mu,) = x
         rf = magic_formula(af, params.C_af, fzf, mu, c_shape, e_curv) - params.C_af * af
         rr = magic_formula(ar, params.C_ar, fzr, mu, c_shape, e_curv) - params.C_ar * ar
         return np.concatenate([rf - delta[:, 0], rr - delta[:, 1]])
@@ -64,7 +64,7 @@ def axle_saturation_curve(delta, alpha, c_alpha: float, fz: float) -> np.ndarray
     def curve(mu):
         return magic_formula(alpha, c_alpha, fz, mu, 1.3, -0.5) - c_alpha * alpha
 
-    sol = least_squares(lambda th: curve(th[0]) - delta, [1.0], bounds=([0.1], [3.0]))
+    sol = least_squares(lambda x: curve(x[0]) - delta, [1.0], bounds=([0.1], [3.0]))
     return curve(sol.x[0])
 
 
@@ -122,7 +122,7 @@ def test_reference_tire_shape_is_not_identifiable(car) -> None:
         return np.concatenate([rf - delta[rows, 0], rr - delta[rows, 1]])
 
     free = least_squares(resid, [1.0, 1.3, -0.5], bounds=([0.3, 0.8, -5.0], [3.0, 2.5, 0.99]))
-    fixed = least_squares(lambda th: resid([th[0], 1.3, -0.5]), [1.0])
+    fixed = least_squares(lambda x: resid([x[0], 1.3, -0.5]), [1.0])
     cov = np.linalg.inv(free.jac.T @ free.jac) * 2 * free.cost / (free.fun.size - 3)
     se = np.sqrt(np.diag(cov))
     assert abs(free.x[0] - fixed.x[0]) < 0.08

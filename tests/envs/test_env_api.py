@@ -14,10 +14,17 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import simgap
 from simgap.envs import BicycleTireEnv, ManipulatorFrictionEnv
 from simgap.models.base import NominalModel
+from simgap.systems import SYSTEMS
 from tests.envs.checkers import quiet_checkers
 
-ENVS = [ManipulatorFrictionEnv, BicycleTireEnv]
-IDS = ["simgap/ManipulatorFriction-v0", "simgap/BicycleTire-v0"]
+# every registered system with an env (the registry is the one list of envs)
+SPECS = [s for s in SYSTEMS.values() if s.env_id]
+IDS = [s.env_id for s in SPECS]
+ENVS = [s.resolve("env_entry_point") for s in SPECS]
+
+
+def test_registry_lists_the_builtin_envs():
+    assert {ManipulatorFrictionEnv, BicycleTireEnv} <= set(ENVS)
 
 
 @pytest.mark.parametrize("cls", ENVS)

@@ -6,6 +6,7 @@ import gymnasium as gym
 import numpy as np
 
 from simgap.models.base import BaseNominalModel
+from simgap.systems import SystemSpec, register_system
 
 
 class PendulumNominal(BaseNominalModel):
@@ -20,6 +21,10 @@ class PendulumNominal(BaseNominalModel):
 
     def f(self, x, u):
         return np.array([x[1], -9.81 * np.sin(x[0]) + u[0]])
+
+
+# A user system: the wrappers take its identifier preset from the registry (Table 4.3's).
+register_system(SystemSpec(name="toy_pendulum", identifier_preset="manipulator"), replace=True)
 
 
 class DampedPendulumEnv(gym.Env):

@@ -1,0 +1,320 @@
+"""A plant is nominal parameters plus named effect instances (value objects, no fitting code).
+
+* :class:`Param` and :class:`EffectSpec` declare one effect of a system's vocabulary: its
+  parameters (units with ``{effort}``/``{position}`` placeholders, bounds, injection range),
+  whether it acts per channel (joint, axle) or on the whole system, what it needs, and how
+  an instance enters the plant (``write`` into the system's fold).
+* :class:`EffectInstance` is one effect with values: ``coulomb_friction@joint2, Fc=0.26``.
+* :class:`PlantSchema` is what a system's kernel module declares about its plant: the
+  parameter class, the channels, the vocabulary, the default options and the fold that turns
+  a :class:`Plant` into the kernel array.
+* :class:`Plant` is the value the envs, the generator and the augmented model hold; its
+  :attr:`Plant.array` is the only producer of a plant kernel array.
+
+Changing a plant makes a new value (``plant.with_effect("tire_saturation", mu=0.6)``), so
+nothing derived from it (the env's ``mu``, its kernel array) can go stale.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
+from typing import Any, Literal
+
+import numpy as np
+
+from simgap.errors import ModelError
+
+
+@dataclass(frozen=True, kw_only=True)
+class Param:
+    """One parameter of an effect.
+
+    Attributes:
+        name: the reported, physical name (``"Fc"``, ``"mu"``, ``"q0"``).
+        unit: unit with placeholders ``{effort}`` (N·m or N) and ``{position}`` (rad or m),
+            formatted per channel by :func:`format_unit`.
+        bounds: plausible physical range (inclusive); values outside are rejected.
+        inject: range the generator's proof draws test values from (``None``: not drawn).
+        signed: the proof also draws the value's sign.
+        default: value used when an instance leaves the parameter out (``None``: required).
+    """
+
+    name: str
+    unit: str = "-"
+    bounds: tuple[float, float] = (-math.inf, math.inf)
+    inject: tuple[float, float] | None = None
+    signed: bool = False
+    default: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class EffectSpec:
+    """One effect of a system's vocabulary (see the module docstring).
+
+    Attributes:
+        name: vocabulary name, e.g. ``"coulomb_friction"``.
+        label: short human label.
+        scope: ``"channel"`` (one instance per joint/axle) or ``"system"`` (whole plant).
+        params: the parameters.
+        write: ``write(acc, channel_index, values)`` applies one instance to the system's
+            fold accumulator (``channel_index`` is ``None`` for system effects and for channel
+            effects given without a channel when ``all_channels`` is set).
+        all_channels: a channel effect may be given without a channel: it then acts on
+            every channel (one road μ for both axles).
+        needs: effects that must be present on the same channel (Stribeck needs Coulomb's
+            Fc for its breakaway difference).
+        vocabulary: ``False`` for effects that exist only to be injected (testing that the
+            diagnosis forces nothing into its vocabulary).
+    """
+
+    name: str
+    label: str
+    scope: Literal["channel", "system"]
+    params: tuple[Param, ...]
+    write: Callable[[dict, int | None, Mapping[str, float]], None]
+    all_channels: bool = False
+    needs: tuple[str, ...] = ()
+    vocabulary: bool = True
+
+    def param(self, name: str) -> Param:
+        """The parameter called ``name``."""
+        for p in self.params:
+            if p.name == name:
+                return p
+        raise ModelError(f"effect {self.name!r} has no parameter {name!r}")
+
+    def check(self, channel: str | None, values: Mapping[str, float],
+              channels: tuple[str, ...], error: type[Exception] = ModelError
+              ) -> dict[str, float]:
+        """Validate one instance; returns its values with defaults filled in.
+
+        Raises:
+            error: one line naming the effect and the wrong channel or parameter.
+        """
+        if self.scope == "channel":
+            if (channel is None and not self.all_channels) or \
+                    (channel is not None and channel not in channels):
+                raise error(f"effect {self.name!r} needs a channel in {channels}"
+                            f"{' or none' if self.all_channels else ''}, got {channel!r}")
+        elif channel is not None:
+            raise error(f"effect {self.name!r} acts on the whole system and takes no channel, "
+                        f"got {channel!r}")
+        names = tuple(p.name for p in self.params)
+        unknown = sorted(set(values) - set(names))
+        missing = [p.name for p in self.params if p.default is None and p.name not in values]
+        if unknown or missing:
+            raise error(f"effect {self.name!r} takes parameters {names}, got {sorted(values)}")
+        out: dict[str, float] = {}
+        for p in self.params:
+            v = float(values[p.name]) if p.name in values else float(p.default)  # type: ignore
+            lo, hi = p.bounds
+            if not (math.isfinite(v) and lo <= v <= hi):
+                raise error(f"effect {self.name!r} parameter {p.name} = {v!r} must be finite "
+                            f"and within [{lo:g}, {hi:g}]")
+            out[p.name] = v
+        return out
+
+
+def format_unit(unit: str, *, effort: str = "N·m", position: str = "rad") -> str:
+    """Fill a :attr:`Param.unit` template for a revolute (N·m, rad) or prismatic (N, m) joint."""
+    return unit.replace("{effort}", effort).replace("{position}", position)
+
+
+@dataclass(frozen=True)
+class EffectInstance:
+    """One named effect with values: vocabulary name, channel (or ``None``) and parameters."""
+
+    name: str
+    channel: str | None = None
+    params: Mapping[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The schema-1 augmented-model/report form ``{"effect", "channel", "params"}``."""
+        return {"effect": self.name, "channel": self.channel,
+                "params": {k: float(v) for k, v in self.params.items()}}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> EffectInstance:
+        """Inverse of :meth:`to_dict` (also accepts ``"name"`` for ``"effect"``)."""
+        name = d.get("effect", d.get("name"))
+        if not isinstance(name, str):
+            raise ModelError(f"effect description without a name: {dict(d)!r}")
+        return cls(name, d.get("channel"), {k: float(v) for k, v in
+                                            dict(d.get("params", {})).items()})
+
+
+@dataclass(frozen=True)
+class Folded:
+    """What a system's fold makes of a plant: effective parameters, kernel array, extras."""
+
+    params: Any
+    array: np.ndarray
+    extras: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlantSchema:
+    """A system's plant declaration (see the module docstring).
+
+    Attributes:
+        system: the system name (``"manipulator2dof"``, ``"bicycle"``).
+        params_cls: the frozen parameter dataclass of the nominal/truth rigid body.
+        channels: channel names of per-channel effects.
+        vocabulary: the effects, in fold order.
+        options: default plant options (non-effect settings such as the speed).
+        fold: ``fold(plant) -> Folded`` builds the effective parameters and kernel array.
+    """
+
+    system: str
+    params_cls: type
+    channels: tuple[str, ...]
+    vocabulary: tuple[EffectSpec, ...]
+    options: Mapping[str, Any]
+    fold: Callable[[Plant], Folded]
+
+    def effect(self, name: str, error: type[Exception] = ModelError) -> EffectSpec:
+        """The vocabulary entry ``name``; one error listing the known names otherwise."""
+        for e in self.vocabulary:
+            if e.name == name:
+                return e
+        raise error(f"unknown effect {name!r} for {self.system}; choose from "
+                    f"{sorted(e.name for e in self.vocabulary)}")
+
+    def plant(self, params: Any = None, effects: tuple[EffectInstance, ...] = (),
+              **options: Any) -> Plant:
+        """A :class:`Plant` of this system (``params`` default: the nominal parameters)."""
+        return Plant(self, params if params is not None else self.params_cls(),
+                     tuple(effects), options)
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Nominal parameters + named effect instances of one system (immutable).
+
+    Args:
+        schema: the system's :class:`PlantSchema`.
+        params: the system's parameter dataclass (the rigid body before any effect).
+        effects: effect instances, each naming an entry of the schema's vocabulary.
+        options: plant options overriding the schema's defaults.
+
+    Raises:
+        ModelError: unknown effect, option, channel or parameter, or parameters of the
+            wrong class (checked on construction).
+    """
+
+    schema: PlantSchema
+    params: Any
+    effects: tuple[EffectInstance, ...] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        s = self.schema
+        if not isinstance(self.params, s.params_cls):
+            raise ModelError(f"{s.system} plant needs {s.params_cls.__name__}, got "
+                             f"{self.params!r}")
+        unknown = sorted(set(self.options) - set(s.options))
+        if unknown:
+            raise ModelError(f"unknown {s.system} plant option(s) {unknown}; known: "
+                             f"{sorted(s.options)}")
+        checked = []
+        for e in self.effects:
+            if not isinstance(e, EffectInstance):
+                raise ModelError(f"plant effects must be EffectInstance, got {e!r}")
+            spec = s.effect(e.name)
+            checked.append(replace(e, params=spec.check(e.channel, e.params, s.channels)))
+        object.__setattr__(self, "effects", tuple(checked))
+        object.__setattr__(self, "options", {**s.options, **self.options})
+
+    @property
+    def system(self) -> str:
+        """The system name."""
+        return self.schema.system
+
+    @cached_property
+    def folded(self) -> Folded:
+        """The fold's result (effective parameters, kernel array, extras), computed once."""
+        return self.schema.fold(self)
+
+    @property
+    def array(self) -> np.ndarray:
+        """The plant kernel array (layout in the system's kernel module). Do not mutate it."""
+        return self.folded.array
+
+    @property
+    def true_params(self) -> Any:
+        """The effective rigid-body parameters after the effects that change them."""
+        return self.folded.params
+
+    def has(self, name: str, channel: str | None = None) -> bool:
+        """Whether an instance of ``name`` (on ``channel``, if given) is present."""
+        return any(e.name == name and (channel is None or e.channel == channel)
+                   for e in self.effects)
+
+    def get(self, name: str, channel: str | None = None) -> EffectInstance | None:
+        """The instance of ``name`` on ``channel`` (``None`` if absent)."""
+        for e in self.effects:
+            if e.name == name and e.channel == channel:
+                return e
+        return None
+
+    def with_effect(self, name: str, channel: str | None = None, **params: float) -> Plant:
+        """A new plant with the instance ``name@channel`` set (replacing one there).
+
+        Parameters not given keep the replaced instance's values.
+        """
+        old = self.get(name, channel)
+        merged = {**(dict(old.params) if old is not None else {}), **params}
+        rest = tuple(e for e in self.effects if not (e.name == name and e.channel == channel))
+        return replace(self, effects=(*rest, EffectInstance(name, channel, merged)))
+
+    def without(self, name: str, channel: str | None = None) -> Plant:
+        """A new plant without ``name`` (on ``channel``, or on every channel if ``None``)."""
+        return replace(self, effects=tuple(
+            e for e in self.effects
+            if not (e.name == name and (channel is None or e.channel == channel))))
+
+    def with_params(self, **changes: Any) -> Plant:
+        """A new plant whose rigid-body parameters are ``dataclasses.replace``-d."""
+        return replace(self, params=replace(self.params, **changes))
+
+    def with_options(self, **options: Any) -> Plant:
+        """A new plant with some options changed."""
+        return replace(self, options={**self.options, **options})
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form: ``{"system", "params", "effects", "options"}``."""
+        return {"system": self.system,
+                "params": {f.name: _jsonable(getattr(self.params, f.name))
+                           for f in fields(self.params)},
+                "effects": [e.to_dict() for e in self.effects],
+                "options": {k: _jsonable(v) for k, v in self.options.items()}}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], schema: PlantSchema) -> Plant:
+        """Inverse of :meth:`to_dict` for the given system schema."""
+        if d.get("system", schema.system) != schema.system:
+            raise ModelError(f"plant description is for {d.get('system')!r}, not "
+                             f"{schema.system!r}")
+        try:
+            params = schema.params_cls(**{k: (tuple(v) if isinstance(v, list) else v)
+                                          for k, v in dict(d.get("params", {})).items()})
+        except TypeError as err:
+            raise ModelError(f"{schema.system} plant parameters: {err}") from None
+        opts = {k: (tuple(v) if isinstance(v, list) else v)
+                for k, v in dict(d.get("options", {})).items()}
+        return cls(schema, params, tuple(EffectInstance.from_dict(e)
+                                         for e in d.get("effects", [])), opts)
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, tuple | list | np.ndarray):
+        return [float(x) for x in v]
+    return float(v) if isinstance(v, int | float | np.floating) else v
+
+
+def channel_index(channels: tuple[str, ...], channel: str | None) -> int | None:
+    """Index of ``channel`` in ``channels`` (``None`` stays ``None``)."""
+    return None if channel is None else channels.index(channel)

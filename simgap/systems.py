@@ -1,0 +1,180 @@
+"""The system registry: every system simgap knows is one :class:`SystemSpec`, registered once.
+
+Env registration, the identifier wrappers' preset lookup, ``simgap diagnose --model NAME``,
+``simgap record --model NAME`` / :func:`simgap.diagnosis.generate.generate` and the env API
+tests look systems up here (or iterate :data:`SYSTEMS`), so a new system is one
+:func:`register_system` call, not a dozen edits, and an unknown name fails with one error
+that lists the registered systems.
+
+A user system registers through the same function::
+
+    from simgap.systems import SystemSpec, register_system
+
+    register_system(SystemSpec(name="my_axis", params_cls=AxisParams,
+                               nominal=lambda params, dt: AxisNominal(params, dt=dt),
+                               identifier_preset="manipulator"))
+
+Only ``name`` is required: a system registered with a preset alone lets the identifier
+wrappers pick their configuration for a model whose ``name`` it is.
+
+Fields that name code in higher layers (env entry points, the diagnosis adapter, the
+generator) are ``"module:attribute"`` strings, resolved on use, so that importing the
+registry imports neither gymnasium envs nor the diagnosis.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from simgap.errors import ModelError
+from simgap.models import bicycle as bic
+from simgap.models import manipulator as man
+from simgap.models.effects import EffectSpec, Plant, PlantSchema
+
+
+@dataclass(frozen=True, kw_only=True)
+class RecordingSchema:
+    """Canonical recording columns of a system.
+
+    Attributes:
+        canonical: the columns a recording holds (``t`` first).
+        derivable: columns that may be left out and derived (e.g. velocities from positions).
+        input_hold: how the input acts between samples (``"zoh"``: held).
+    """
+
+    canonical: tuple[str, ...]
+    derivable: tuple[str, ...] = ()
+    input_hold: str = "zoh"
+
+
+@dataclass(frozen=True, kw_only=True)
+class SystemSpec:
+    """One system (see the module docstring).
+
+    Attributes:
+        name: the one name (``NominalModel.name``, ``--model``, recording meta).
+        params_cls: the frozen parameter dataclass (``None`` for a system without one).
+        nominal: ``nominal(params, dt) -> NominalModel``; ``dt`` ``None`` = the default.
+        plant_schema: the truth plant's declaration (vocabulary, options, fold), if the
+            system has a simulated plant.
+        recording: canonical recording columns.
+        identifier_preset: key of the thesis identifier presets (``identifiers.config``);
+            ``None``: the wrappers need an explicit ``config``.
+        residual_form: ``"module:callable"`` turning a nominal model into the diagnosis
+            adapter.
+        generator: ``"module:function"`` making concealed-effect recordings.
+        env_id: gymnasium id; with ``env_entry_point`` and ``max_episode_steps``.
+        env_entry_point: ``"module:Class"`` of the env.
+        max_episode_steps: default ``TimeLimit`` of ``gym.make``.
+    """
+
+    name: str
+    params_cls: type | None = None
+    nominal: Callable[[Any, float | None], Any] | None = None
+    plant_schema: PlantSchema | None = None
+    recording: RecordingSchema | None = None
+    identifier_preset: str | None = None
+    residual_form: str | None = None
+    generator: str | None = None
+    env_id: str | None = None
+    env_entry_point: str | None = None
+    max_episode_steps: int | None = None
+
+    @property
+    def vocabulary(self) -> tuple[EffectSpec, ...]:
+        """The effects of the system's plant (empty without a plant schema)."""
+        return self.plant_schema.vocabulary if self.plant_schema is not None else ()
+
+    def plant(self, params: Any = None, effects: tuple = (), **options: Any) -> Plant:
+        """A truth :class:`~simgap.models.effects.Plant` of this system."""
+        if self.plant_schema is None:
+            raise ModelError(f"system {self.name!r} has no simulated plant")
+        return self.plant_schema.plant(params, effects, **options)
+
+    def resolve(self, field: str) -> Any:
+        """Import the ``"module:attribute"`` named by one of the string fields."""
+        target = getattr(self, field)
+        if not target:
+            raise ModelError(f"system {self.name!r} has no {field.replace('_', ' ')}")
+        module, _, attr = target.partition(":")
+        return getattr(importlib.import_module(module), attr)
+
+
+#: The registered systems by name (built-ins first, then user systems in call order).
+SYSTEMS: dict[str, SystemSpec] = {}
+
+
+def register_system(spec: SystemSpec, *, replace: bool = False) -> SystemSpec:
+    """Register a system so that every name lookup of simgap finds it.
+
+    Args:
+        spec: the system.
+        replace: allow replacing a registered system of the same name.
+
+    Raises:
+        ModelError: the name is taken (and ``replace`` is false), or ``spec`` is not a
+            :class:`SystemSpec`.
+    """
+    if not isinstance(spec, SystemSpec):
+        raise ModelError(f"register_system needs a SystemSpec, got {spec!r}")
+    if spec.name in SYSTEMS and not replace:
+        raise ModelError(f"system {spec.name!r} is already registered; pass replace=True")
+    SYSTEMS[spec.name] = spec
+    return spec
+
+
+def get_system(name_or_model: str | Any, error: type[Exception] = ModelError) -> SystemSpec:
+    """The registered system of a name or of a nominal model (its ``name``).
+
+    Raises:
+        error: one line naming the unknown system and listing the registered ones.
+    """
+    name = name_or_model if isinstance(name_or_model, str) \
+        else getattr(name_or_model, "name", None)
+    if name in SYSTEMS:
+        return SYSTEMS[name]
+    raise error(f"unknown model {name!r}; registered systems: {', '.join(SYSTEMS)} "
+                "(add one with simgap.systems.register_system)")
+
+
+def identifier_preset_of(model: Any) -> str:
+    """The thesis identifier preset of a nominal model's registered system.
+
+    Raises:
+        IdentifierError: the model's system is not registered or has no preset; the message
+            names the system and says to pass ``config=`` (or register the system).
+    """
+    from simgap.errors import IdentifierError
+
+    name = getattr(model, "name", None)
+    spec = SYSTEMS.get(name) if isinstance(name, str) else None
+    if spec is None or spec.identifier_preset is None:
+        why = "is not registered" if spec is None else "has no identifier preset"
+        raise IdentifierError(f"system {name!r} of {type(model).__name__} {why}: pass config= "
+                              "(an IdentifierConfig) or register the system with an "
+                              "identifier_preset (simgap.systems.register_system)")
+    return spec.identifier_preset
+
+
+def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
+             form: str, generator: str, env_id: str, env: str, steps: int) -> SystemSpec:
+    """A built-in system: its plant schema names it and its parameter class."""
+    return register_system(SystemSpec(
+        name=schema.system, params_cls=schema.params_cls,
+        nominal=lambda params, dt=None: nominal_cls(params, **({} if dt is None else {"dt": dt})),
+        plant_schema=schema, recording=RecordingSchema(canonical=columns),
+        identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
+        generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
+        env_entry_point=env, max_episode_steps=steps))
+
+
+_builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
+         form="MechanicalSystem", generator="generate_manipulator",
+         env_id="simgap/ManipulatorFriction-v0",
+         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000)
+_builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
+         form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
+         env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)

@@ -1,0 +1,86 @@
+"""The system registry: lookups, user registration, the wrappers' preset, deprecation alias."""
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from simgap.diagnosis.generate import generate
+from simgap.diagnosis.pipeline import make_system
+from simgap.errors import DiagnosisError, GeneratorError, IdentifierError, ModelError
+from simgap.identifiers.config import preset
+from simgap.models.bicycle import BicycleParams
+from simgap.systems import SYSTEMS, SystemSpec, get_system, register_system
+from simgap.wrappers import IdentifierWrapper
+from tests.wrappers.toy import DampedPendulumEnv, PendulumNominal
+
+
+def test_unknown_names_raise_one_error_listing_the_systems():
+    for call, err in ((lambda: get_system("tank"), ModelError),
+                      (lambda: make_system("tank"), DiagnosisError),
+                      (lambda: generate("tank"), GeneratorError)):
+        with pytest.raises(err, match="unknown model 'tank'; registered systems: "
+                                      "manipulator2dof, bicycle"):
+            call()
+
+
+def test_builtin_specs_resolve():
+    bike = get_system("bicycle")
+    assert bike.resolve("env_entry_point").__name__ == "BicycleTireEnv"
+    assert bike.plant(BicycleParams(mu=0.5)).true_params.mu == 0.5
+    assert {e.name for e in bike.vocabulary} >= {"tire_saturation", "steering_lag"}
+    assert type(make_system("manipulator2dof")).__name__ == "MechanicalSystem"
+    with pytest.raises(ModelError, match="already registered"):
+        register_system(SystemSpec(name="bicycle"))
+
+
+class _Unregistered(PendulumNominal):
+    name = "my_unregistered_pendulum"
+
+
+class _UnregisteredEnv(DampedPendulumEnv):
+    def __init__(self):
+        super().__init__()
+        self.nominal_model = _Unregistered()
+
+
+def test_wrapper_needs_a_preset_or_config_instead_of_the_manipulators():
+    with pytest.raises(IdentifierError, match="'my_unregistered_pendulum'.*not registered"):
+        IdentifierWrapper(_UnregisteredEnv(), "integral")
+    register_system(SystemSpec(name="my_unregistered_pendulum", identifier_preset="bicycle"))
+    try:
+        env = IdentifierWrapper(_UnregisteredEnv(), "integral")
+        assert env.identifier.config == preset("bicycle", "integral")  # not Table 4.3's
+    finally:
+        del SYSTEMS["my_unregistered_pendulum"]
+
+
+def test_user_system_env_is_registered_by_the_registry():
+    from simgap.envs.registration import register_envs
+
+    register_system(SystemSpec(name="toy_env_system", identifier_preset="manipulator",
+                               env_id="simgap-test/ToyPendulum-v0",
+                               env_entry_point="tests.wrappers.toy:DampedPendulumEnv",
+                               max_episode_steps=7))
+    try:
+        register_envs()
+        env = gym.make("simgap-test/ToyPendulum-v0")
+        env.reset(seed=0)
+        truncated = [env.step(np.zeros(1))[3] for _ in range(7)]
+        assert truncated == [False] * 6 + [True]  # the registry's max_episode_steps
+    finally:
+        del SYSTEMS["toy_env_system"]
+        gym.registry.pop("simgap-test/ToyPendulum-v0", None)
+
+
+def test_preset_table_alias_warns():
+    import simgap.wrappers.identifier_wrapper as iw
+
+    with pytest.warns(DeprecationWarning, match="PRESET_FOR_MODEL is deprecated"):
+        table = iw.PRESET_FOR_MODEL
+    assert table["manipulator2dof"] == "manipulator" and table["bicycle"] == "bicycle"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(AttributeError):
+            iw.NO_SUCH_NAME  # noqa: B018
