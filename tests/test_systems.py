@@ -11,7 +11,7 @@ from simgap.diagnosis.pipeline import make_system
 from simgap.errors import DiagnosisError, GeneratorError, IdentifierError, ModelError
 from simgap.identifiers.config import preset
 from simgap.models.bicycle import BicycleParams
-from simgap.systems import SYSTEMS, SystemSpec, get_system, register_system
+from simgap.systems import SYSTEMS, SystemSpec, get_system, identifier_preset_of, register_system
 from simgap.wrappers import IdentifierWrapper
 from tests.wrappers.toy import DampedPendulumEnv, PendulumNominal
 
@@ -45,13 +45,17 @@ class _UnregisteredEnv(DampedPendulumEnv):
         self.nominal_model = _Unregistered()
 
 
-def test_wrapper_needs_a_preset_or_config_instead_of_the_manipulators():
+def test_unregistered_env_gets_the_scale_free_preset_not_the_manipulators():
+    env = IdentifierWrapper(_UnregisteredEnv(), "integral")
+    model = env.unwrapped.nominal_model
+    assert env.identifier.config == preset("auto", "integral", dt=model.dt)
+    assert env.identifier.config != preset("manipulator", "integral")  # not Table 4.3's
+    # The thesis preset of a system comes from the registry, and only from there.
     with pytest.raises(IdentifierError, match="'my_unregistered_pendulum'.*not registered"):
-        IdentifierWrapper(_UnregisteredEnv(), "integral")
+        identifier_preset_of(model)
     register_system(SystemSpec(name="my_unregistered_pendulum", identifier_preset="bicycle"))
     try:
-        env = IdentifierWrapper(_UnregisteredEnv(), "integral")
-        assert env.identifier.config == preset("bicycle", "integral")  # not Table 4.3's
+        assert identifier_preset_of(model) == "bicycle"
     finally:
         del SYSTEMS["my_unregistered_pendulum"]
 
