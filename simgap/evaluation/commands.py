@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from simgap._cli_paths import REPRODUCE_OUT
+
 
 def register(app: typer.Typer) -> None:
     """Add ``reproduce`` to ``app``."""
@@ -18,7 +20,7 @@ def register(app: typer.Typer) -> None:
         quick: Annotated[bool, typer.Option("--quick", help="Short CI variant.")] = False,
         out: Annotated[Path, typer.Option(
             "--out", help="Folder for results.json, report.md and the PNGs.")
-        ] = Path("reproduce-output"),
+        ] = REPRODUCE_OUT,
         seed: Annotated[int, typer.Option(
             "--seed", help="Seed of envs and identifier weights.")] = 0,
         timing_runs: Annotated[int | None, typer.Option(
@@ -28,6 +30,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+        from simgap._log import line, log
         from simgap.evaluation.errors import EvaluationError
         from simgap.evaluation.pipeline import reproduce as run
 
@@ -44,10 +47,11 @@ def register(app: typer.Typer) -> None:
 
             try:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
-                          progress=progress, log=lambda m: bar.console.log(m))
+                          progress=progress, log=lambda m: bar.console.print(line(m), markup=False,
+                                                                highlight=False))
             except EvaluationError as exc:
                 bar.stop()
                 console.print(f"error: {exc}", style="red", markup=False)
                 raise typer.Exit(2) from None
         for path in res["files"]:
-            console.log(f"wrote {path}")
+            log(f"wrote {path}")

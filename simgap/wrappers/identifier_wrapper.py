@@ -58,12 +58,14 @@ def _vec(a: Any) -> np.ndarray:
     return np.asarray(a, dtype=np.float64).reshape(-1)
 
 
-def nominal_model_of(env: gym.Env | Any) -> NominalModel:
-    """``env.unwrapped.nominal_model``, checked against the protocol (clear error otherwise)."""
-    model = getattr(getattr(env, "unwrapped", env), "nominal_model", None)
+def nominal_model_of(env: gym.Env | Any, model: NominalModel | None = None) -> NominalModel:
+    """``model`` if given, else ``env.unwrapped.nominal_model``; checked against the protocol."""
+    if model is None:
+        model = getattr(getattr(env, "unwrapped", env), "nominal_model", None)
     if model is None:
         raise IdentifierError(f"{type(getattr(env, 'unwrapped', env)).__name__} has no "
-                              f"'nominal_model' attribute; see simgap.models.base.NominalModel")
+                              f"'nominal_model' attribute; pass one with IdentifierWrapper(env, "
+                              f"model=...) (see simgap.models.base.NominalModel)")
     if not isinstance(model, NominalModel):
         raise IdentifierError(f"nominal_model {model!r} lacks part of the NominalModel "
                               f"protocol (state_names, state_units, input_names, input_units, "
@@ -115,16 +117,19 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``manipulator2dof``, Table 4.4 for ``bicycle``, Table 4.3 otherwise).
         seed: seed of the identifier's initial weights.
         reset_identifier_on_seed: see the module docstring.
+        model: the nominal model f(x, u) of ``env`` (the ``NominalModel`` protocol); ``None``
+            = ``env.unwrapped.nominal_model``. For a user's own env that does not carry one.
     """
 
     def __init__(self, env: gym.Env, identifier: str | Identifier = "integral", *,
                  frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True) -> None:
+                 reset_identifier_on_seed: bool = True,
+                 model: NominalModel | None = None) -> None:
         gym.utils.RecordConstructorArgs.__init__(
             self, identifier=identifier, frozen=frozen, config=config, seed=seed,
-            reset_identifier_on_seed=reset_identifier_on_seed)
+            reset_identifier_on_seed=reset_identifier_on_seed, model=model)
         gym.Wrapper.__init__(self, env)
-        self.nominal_model = nominal_model_of(env)
+        self.nominal_model = nominal_model_of(env, model)
         self.identifier = build_identifier(self.nominal_model, identifier, config, seed)
         if frozen:
             self.identifier.freeze()
