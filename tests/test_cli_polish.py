@@ -67,13 +67,22 @@ def test_one_output_folder_scheme() -> None:
         assert "simgap-report" in res.output, cmd
 
 
-def test_bad_arguments_fail_before_heavy_imports(tmp_path) -> None:
+def _run_cli(argv: list[str]) -> subprocess.CompletedProcess:
     code = ("import sys\nfrom simgap.cli import main\n"
-            f"sys.argv = ['simgap', 'diagnose', {str(tmp_path / 'none.csv')!r}, '--model', "
-            "'bicycle']\n"
+            f"sys.argv = ['simgap', *{argv!r}]\n"
             "try:\n    main()\nexcept SystemExit as e:\n    code = e.code\n"
             "print(code, 'numba' in sys.modules, 'scipy' in sys.modules)\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=120)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_bad_arguments_fail_before_heavy_imports(tmp_path) -> None:
+    res = _run_cli(["diagnose", str(tmp_path / "none.csv"), "--model", "bicycle"])
     assert res.stdout.split() == ["2", "False", "False"], (res.stdout, res.stderr)
     assert "none.csv: file does not exist" in res.stderr
+    res = _run_cli(["record", str(tmp_path / "x.txt")])
+    assert res.stdout.split() == ["2", "False", "False"], (res.stdout, res.stderr)
+    assert "unknown file type" in res.stderr
+    res = _run_cli(["record", str(tmp_path / "x.csv"), "--model", "tank"])
+    assert res.stdout.split() == ["2", "False", "False"], (res.stdout, res.stderr)
+    assert "unknown model 'tank'" in res.stderr

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 from simgap.errors import GeneratorError
 
+#: Models ``simgap record --model`` accepts.
+RECORD_MODELS = ("manipulator2dof", "bicycle")
 #: Units of injection parameters that the vocabulary's fitted form names differently
 #: (``cornering_stiffness`` etc. are fitted as ``ratio_minus_1``; the spring's rest angle
 #: is reported, not fitted; ``tire_relaxation`` lies outside the vocabulary).
@@ -70,8 +72,8 @@ def injectable_effects(model: str) -> list[EffectInfo]:
 
     tables = {"manipulator2dof": (generate.MANIPULATOR_EFFECTS, generate.JOINTS),
               "bicycle": (generate.BICYCLE_EFFECTS, generate.AXLES)}
-    if model not in tables:
-        raise GeneratorError(f"unknown model {model!r}; use one of {sorted(tables)}")
+    if model not in RECORD_MODELS:
+        raise GeneratorError(f"unknown model {model!r}; use one of {list(RECORD_MODELS)}")
     table, channels = tables[model]
     rows = []
     for name, (per_channel, names) in table.items():

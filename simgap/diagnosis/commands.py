@@ -145,6 +145,10 @@ def register(app: typer.Typer) -> None:
             except GeneratorError as err:
                 _fail(str(err))
             return
+        from simgap.diagnosis.catalog import RECORD_MODELS
+
+        if model not in RECORD_MODELS:
+            _fail(f"unknown model {model!r}; use one of {list(RECORD_MODELS)}")
         if out is None:
             _fail("missing the output recording OUT.csv (or use --list-effects)")
         if out.suffix.lower() not in (".csv", ".parquet"):
