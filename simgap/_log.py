@@ -19,7 +19,7 @@ from typing import TextIO
 #: Seconds a :func:`stage` stays silent (quick steps print nothing).
 QUIET_S = 2.0
 #: Seconds between heartbeat lines of a running :func:`stage`.
-HEARTBEAT_S = 5.0
+HEARTBEAT_S = 10.0
 
 
 def line(message: str) -> str:

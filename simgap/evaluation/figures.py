@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from simgap._plotting import legend_outside
 from simgap.evaluation.cases import METHOD_LABELS
@@ -184,6 +185,7 @@ def plot_timing(timing: dict[str, Any], path: Path | None = None) -> Figure:
     ax_h.set_title("Distribution of per-step compute time (all runs)")
     ax_m.set_yscale("log")
     ax_m.set_xlabel("run")
+    ax_m.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_m.set_ylabel("run-wise maximum step time (ms)")
     ax_m.set_title("Worst step of each run")
     ax_h.set_ylim(bottom=0.5)  # one step is the smallest non-empty count
