@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TextIO
 
@@ -68,3 +68,22 @@ def stage(message: str, *, after: float = QUIET_S, every: float = HEARTBEAT_S,
         worker.join()
     if started.is_set():
         log(f"{message}: done in {time.perf_counter() - start:.1f} s", stream)
+
+
+def progress_lines(every: float = HEARTBEAT_S, stream: TextIO | None = None
+                   ) -> Callable[[str, int, int], None]:
+    """A ``progress(task, done, total)`` callback writing throttled plain lines.
+
+    At most one line per ``every`` seconds, and always the line that completes a task. For
+    library functions that report progress through such a callback (e.g.
+    :func:`simgap.evaluation.pipeline.reproduce`) when no progress bar is wanted.
+    """
+    last = [-float("inf")]
+
+    def progress(task: str, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if done >= total or now - last[0] >= every:
+            last[0] = now
+            log(f"  {task}: {done}/{total} ({100.0 * done / max(total, 1):.0f} %)", stream)
+
+    return progress

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from simgap._log import log, stage
+from simgap._log import log, progress_lines, stage
 from simgap._plotting import legend_outside
 from simgap.envs.bicycle import BicycleTireEnv
 from simgap.envs.manipulator import ManipulatorFrictionEnv
@@ -291,7 +291,8 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
         from simgap.evaluation.pipeline import reproduce as run_reproduce
 
         log("reproduce --case all --quick (thesis Tables 4.5/4.6, quick variant)")
-        rep = run_reproduce(out / "reproduce", case="all", quick=True, seed=seed, log=log)
+        rep = run_reproduce(out / "reproduce", case="all", quick=True, seed=seed, log=log,
+                            progress=progress_lines())
         written.extend(Path(p) for p in rep["files"] if str(p).endswith(".png"))
         log(f"wrote {out / 'reproduce' / 'report.md'}")
     index = write_index(out, written)

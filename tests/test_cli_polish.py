@@ -12,7 +12,7 @@ import time
 from typer.testing import CliRunner
 
 from simgap._cli_paths import DEMO_OUT, REPORT_ROOT, REPRODUCE_OUT
-from simgap._log import line, stage
+from simgap._log import line, progress_lines, stage
 from simgap.cli import app
 from simgap.diagnosis.catalog import injectable_effects
 from simgap.diagnosis.generate import BICYCLE_EFFECTS, MANIPULATOR_EFFECTS
@@ -86,3 +86,13 @@ def test_bad_arguments_fail_before_heavy_imports(tmp_path) -> None:
     res = _run_cli(["record", str(tmp_path / "x.csv"), "--model", "tank"])
     assert res.stdout.split() == ["2", "False", "False"], (res.stdout, res.stderr)
     assert "unknown model 'tank'" in res.stderr
+
+
+def test_progress_lines_are_throttled() -> None:
+    buf = io.StringIO()
+    progress = progress_lines(every=3600.0, stream=buf)
+    for k in range(1, 101):
+        progress("case 1, baseline 1", k, 100)
+    out = buf.getvalue().splitlines()
+    assert len(out) == 2 and "1/100" in out[0] and "100/100 (100 %)" in out[1], out
+    assert all(PLAIN.match(s) for s in out)
