@@ -1,8 +1,21 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # simgap quickstart
 # Make an env, step it, and read the true residual and the nominal model it exposes.
 
 # %%
+# %matplotlib inline
 import gymnasium as gym
 import numpy as np
 

@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # Case 1: the 2-DOF manipulator with joint friction (thesis Sec. 4.3)
 #
@@ -10,6 +22,7 @@
 # the thesis' 220 s with freeze times 180 s / 220 s (about a minute).
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 

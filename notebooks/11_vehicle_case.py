@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # Cases 2-1 and 2-2: bicycle lateral dynamics with saturating tires (thesis Sec. 4.4)
 #
@@ -9,6 +21,7 @@
 # run in full.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 

@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # The reproducibility test on your own env
 #
@@ -10,6 +22,7 @@
 # random-waypoint reference: every setting below is a user choice.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 

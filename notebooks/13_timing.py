@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # Per-step compute time of the identifiers (thesis Sec. 4.5.2, Table 4.6)
 #
@@ -6,6 +18,7 @@
 # times 2 runs of 4 s. Timings depend on the machine and its load, recorded below.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 

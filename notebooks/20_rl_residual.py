@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # Residual RL with and without the learned residual in the observation
 # A SAC agent (stable-baselines3) corrects the nominal-inverting yaw-rate controller of the
@@ -8,8 +20,11 @@
 # steps); with `SIMGAP_QUICK=1` this notebook runs a few hundred steps.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
+
+from IPython.display import Image, display
 
 from simgap.control.figures import rl_curves_figure
 from simgap.control.rl import RL_INFO_KEYWORDS, VARIANTS, RLTask, make_rl_env, train_agent
@@ -32,4 +47,4 @@ for run in runs:
 
 # %%
 rl_curves_figure(runs, steps, OUT / "rl_curves.png")
-print("figure:", OUT / "rl_curves.png")
+display(Image(filename=str(OUT / "rl_curves.png")))

@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # Sampling MPC with the nominal model and with nominal + frozen residual network
 # MPPI yaw-rate tracking on a μ = 0.5 road at 20 m/s (reference lateral acceleration 0.98 μg).
@@ -6,8 +18,11 @@
 # The full run is `benchmarks/bench_mpc.py`; `SIMGAP_QUICK=1` runs one identifier briefly.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
+
+from IPython.display import Image, display
 
 from simgap.control import MPCConfig
 from simgap.control.experiments import BicycleTask, mpc_study
@@ -27,4 +42,4 @@ for name, v in res["variants"].items():
     print(f"{name:22s} yaw-rate RMSE {v['rmse_rad_s']:.4f} rad/s, peak {v['max_abs_rad_s']:.4f}"
           f" rad/s, compute per step p50 {1e3 * v['compute_s']['p50']:.2f} ms")
 mpc_figure(res, OUT / "mpc.png")
-print("figure:", OUT / "mpc.png")
+display(Image(filename=str(OUT / "mpc.png")))

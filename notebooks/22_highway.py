@@ -1,3 +1,15 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
 # %% [markdown]
 # # highway-env lane keeping on Magic Formula tires, with the identifier running inside
 # `simgap/PacejkaLaneKeeping-v0` is highway-env's lane-keeping task with a
@@ -7,12 +19,10 @@
 # estimate with the truth.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from simgap.highway.experiments import identify_lane_keeping

@@ -4,6 +4,10 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
 # ---
 
 # %% [markdown]
@@ -16,11 +20,12 @@
 # viscous friction Fv = 203.5 N·s/m, Coulomb friction Fc = 20.39 N and an offset of
 # −3.16 N. Does the diagnosis find them?
 #
-# The data live in the project's shared folder (`../shared/data/real/emps/`, see its
-# README for source and licence); they are not part of this repository.
+# The data live in the project's shared folder (`shared/data/real/emps/` beside the
+# repository, see its README for source and licence); they are not part of this repository.
 # With `SIMGAP_QUICK=1` only the first 12 s are diagnosed.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 
@@ -30,9 +35,11 @@ from simgap.diagnosis.custom import diagnose_custom
 from simgap.diagnosis.report import summary_lines, write_report
 
 QUICK = os.environ.get("SIMGAP_QUICK") == "1"
-DATA = Path("../shared/data/real/emps")
+# Jupyter runs a notebook in its own folder (notebooks/): paths start from there.
+REPO = Path.cwd().parent
+DATA = REPO.parent / "shared" / "data" / "real" / "emps"
 OUT = Path(os.environ.get("SIMGAP_NOTEBOOK_OUT", "notebook-output")) / "diagnose_emps"
-MODEL = "examples/emps_model.py:EMPS"
+MODEL = f"{REPO / 'examples' / 'emps_model.py'}:EMPS"
 
 # %% [markdown]
 # ## The estimation set

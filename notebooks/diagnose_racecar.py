@@ -4,6 +4,10 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
 # ---
 
 # %% [markdown]
@@ -16,11 +20,12 @@
 # measured speed of every sample. Linear tires cannot saturate: where does the recording
 # disagree, and what does the diagnosis call it?
 #
-# The data live in `../shared/data/real/racecar_sideslip_100hz/` (see its README); they
-# are not part of this repository. With `SIMGAP_QUICK=1` only the first 150 s are
+# The data live in `shared/data/real/racecar_sideslip_100hz/` beside the repository (see
+# its README); they are not part of this repository. With `SIMGAP_QUICK=1` only the first 150 s are
 # diagnosed.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 
@@ -30,9 +35,12 @@ from simgap.diagnosis.custom import diagnose_custom
 from simgap.diagnosis.report import summary_lines, write_report
 
 QUICK = os.environ.get("SIMGAP_QUICK") == "1"
-DATA = Path("../shared/data/real/racecar_sideslip_100hz/racecar_sideslip_100hz.csv")
+# Jupyter runs a notebook in its own folder (notebooks/): paths start from there.
+REPO = Path.cwd().parent
+DATA = (REPO.parent / "shared" / "data" / "real" / "racecar_sideslip_100hz"
+        / "racecar_sideslip_100hz.csv")
 OUT = Path(os.environ.get("SIMGAP_NOTEBOOK_OUT", "notebook-output")) / "diagnose_racecar"
-MODEL = "examples/racecar_model.py:RACECAR"
+MODEL = f"{REPO / 'examples' / 'racecar_model.py'}:RACECAR"
 
 # %%
 report = diagnose_custom(MODEL, DATA, duration=150.0 if QUICK else None)

@@ -1,4 +1,4 @@
-"""Matplotlib figures (Agg backend, PNG) of the downstream studies; one function per study."""
+"""Matplotlib figures (PNG) of the downstream studies; one function per study."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy as np
 
 
 def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
+    # No backend switch: headless, matplotlib picks Agg itself; in Jupyter the inline backend
+    # stays (the figures are saved and closed, so nothing is shown twice).
     import matplotlib.pyplot as plt
 
     return plt

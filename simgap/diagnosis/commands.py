@@ -82,6 +82,17 @@ def register(app: typer.Typer) -> None:
         figures: bool = typer.Option(True, help="Write the PNG figures."),
     ) -> None:
         """Locate and name the physics a recording has and the nominal model lacks."""
+        # checked before the numerical modules are imported (seconds), one line each
+        if not recording.is_file():
+            _fail(f"{recording}: file does not exist" if not recording.exists()
+                  else f"{recording}: not a file")
+        if ":" in model and not Path(model.rsplit(":", 1)[0]).is_file():
+            _fail(f"{model.rsplit(':', 1)[0]}: model file not found (--model path.py:NAME)")
+        if model.lower().endswith(".xml") and not Path(model).is_file():
+            _fail(f"{model}: MJCF file not found (--model robot.xml)")
+        if out is not None and out.exists() and not out.is_dir():
+            _fail(f"{out}: exists and is not a folder")
+        from simgap._log import stage
         from simgap.diagnosis.pipeline import default_out_dir
         from simgap.diagnosis.pipeline import diagnose as run
         from simgap.diagnosis.report import summary_lines, write_report
@@ -92,17 +103,19 @@ def register(app: typer.Typer) -> None:
             _fail(f"{params}: --params applies to built-in models only; set the "
                   f"parameters in {model.rsplit(':', 1)[0]}")
         try:
-            if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
-                from simgap.diagnosis.mujoco import diagnose_mjcf
+            with stage(f"diagnosing {recording.name} against {model}"):
+                if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
+                    from simgap.diagnosis.mujoco import diagnose_mjcf
 
-                report = diagnose_mjcf(model, recording, columns=columns)
-            else:
-                report = run(recording, model, overrides, columns=columns)
+                    report = diagnose_mjcf(model, recording, columns=columns)
+                else:
+                    report = run(recording, model, overrides, columns=columns)
         except SimgapError as err:
             _fail(str(err))
         target = out or default_out_dir(recording)
         try:
-            write_report(report, target, figures=figures)
+            with stage(f"writing the report to {target}"):
+                write_report(report, target, figures=figures)
         except OSError as err:
             _fail(f"{target}: cannot write the report ({err.strerror or err})")
         for line in summary_lines(report.data):
@@ -115,7 +128,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def record(
-        out: Path = typer.Argument(..., help="Output recording (.csv or .parquet)."),
+        out: Path = typer.Argument(None, help="Output recording (.csv or .parquet)."),
         model: str = typer.Option("manipulator2dof", "--model",
                                   help="manipulator2dof or bicycle."),
         effect: list[str] = typer.Option(
@@ -128,11 +141,27 @@ def register(app: typer.Typer) -> None:
         vx: float = typer.Option(20.0, help="Bicycle mean speed (m/s)."),
         truth: bool = typer.Option(True, help="Also write OUT.truth.json with what was "
                                    "injected (the diagnosis never reads it)."),
+        list_effects: bool = typer.Option(False, "--list-effects", help="List the effects "
+                                          "of --model (channels, parameters with units and "
+                                          "defaults) and exit."),
     ) -> None:
         """Generate a recording with concealed effects (closed loop or scripted steering)."""
-        from simgap.diagnosis.generate import GeneratorError, generate
-        from simgap.recordings import RecordingError, write_recording
+        from simgap.errors import GeneratorError, RecordingError
 
+        if list_effects:
+            from simgap.diagnosis.catalog import effect_table_lines
+
+            try:
+                typer.echo("\n".join(effect_table_lines(model)))
+            except GeneratorError as err:
+                _fail(str(err))
+            return
+        from simgap.diagnosis.catalog import RECORD_MODELS
+
+        if model not in RECORD_MODELS:
+            _fail(f"unknown model {model!r}; use one of {list(RECORD_MODELS)}")
+        if out is None:
+            _fail("missing the output recording OUT.csv (or use --list-effects)")
         if out.suffix.lower() not in (".csv", ".parquet"):
             _fail(f"{out}: unknown file type {out.suffix!r}; use .csv or .parquet")
         if not out.parent.exists():
@@ -144,8 +173,16 @@ def register(app: typer.Typer) -> None:
             kwargs.update(program=program, vx=vx)
         try:
             effects = [parse_effect(e) for e in effect]
-            rec = generate(model, effects, name=out.name, **kwargs)
-            write_recording(out, rec.columns)
+        except GeneratorError as err:
+            _fail(str(err))
+        from simgap._log import stage
+        from simgap.diagnosis.generate import generate
+        from simgap.recordings import write_recording
+
+        try:
+            with stage(f"recording {out.name} ({model}, {len(effects)} hidden effect(s))"):
+                rec = generate(model, effects, name=out.name, **kwargs)
+                write_recording(out, rec.columns)
         except (GeneratorError, RecordingError, ValueError) as err:
             _fail(str(err))
         if truth:

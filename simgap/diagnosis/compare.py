@@ -36,7 +36,7 @@ class Comparison:
         rollout_rmse: {"nominal": [...], "augmented": [...]} per state.
         score: {"nominal": x, "augmented": y}, dimensionless.
         horizon: simulation window (s).
-        example: arrays for the figure: t, recorded, nominal, augmented states over a few
+        example: arrays for the figure: t, recorded, nominal, augmented states over the
             consecutive windows.
     """
 
@@ -62,7 +62,8 @@ def _rollouts(system: Any, starts: np.ndarray, steps: int, effects: Sequence[tup
 
 
 def compare(system: Any, effects: Sequence[tuple], t_split: float,
-            horizon: float | None = None, example_windows: int = 8) -> Comparison:
+            horizon: float | None = None, example_windows: int | None = None
+            ) -> Comparison:
     """Compare the nominal and the augmented model on the part after ``t_split``.
 
     Args:
@@ -70,7 +71,8 @@ def compare(system: Any, effects: Sequence[tuple], t_split: float,
         effects: fitted effects as (effect, index, lin, nl) tuples.
         t_split: start of the test part (s).
         horizon: simulation window (s); default the adapter's ``rollout_horizon``.
-        example_windows: consecutive windows kept for the figure.
+        example_windows: consecutive windows kept for the figure (default: all, the whole
+            test part).
     """
     t = system.t
     dt = float(t[1] - t[0])
@@ -98,7 +100,7 @@ def compare(system: Any, effects: Sequence[tuple], t_split: float,
         roll[label] = [float(v) for v in err]
         score[label] = float(np.sqrt(np.mean((err / scale) ** 2)))
         sims[label] = sim
-    n_ex = min(example_windows, len(starts))
+    n_ex = len(starts) if example_windows is None else min(example_windows, len(starts))
     ex_t = np.concatenate([t[starts[i]:starts[i] + steps + 1] for i in range(n_ex)])
     example = {"t": ex_t,
                "recorded": np.concatenate([rec[:, i] for i in range(n_ex)]),

@@ -351,7 +351,7 @@ class Fitter:
                                     key=lambda x: -x[1])[:4]})
             if not ok:
                 break
-            self._aliases(sel, term, fit, trials, gains, gain)
+            self._aliases(sel, term, fit, trials, gains, gain, current.sse_test)
             current = fit
             remaining = [t for t in remaining if t.key != term.key]
         sel.fit = self._prune(current, sel, n_test)
@@ -381,7 +381,13 @@ class Fitter:
             current = f
         return current
 
-    def _aliases(self, sel: Selection, term: Term, fit: FitResult, trials, gains, gain) -> None:
+    def _aliases(self, sel: Selection, term: Term, fit: FitResult, trials, gains, gain,
+                 base: float) -> None:
+        """Warn where another candidate explains the same held-out residual as ``term``.
+
+        ``gain``/``gains`` are reductions of the held-out weighted squared residual; the
+        warning states them as shares of ``base``, that residual before this round.
+        """
         mine = fit.pred[-1][self.test].ravel()
         for (t, f), g in zip(trials, gains, strict=True):
             if t.key == term.key or not np.isfinite(g) or g < ALIAS_GAIN * gain:
@@ -401,7 +407,14 @@ class Fitter:
                     "channels": [term.channel, t.channel],
                     "correlation": corr,
                     "text": (f"{term.effect.label} at {term.channel} and {t.effect.label} at "
-                             f"{t.channel} cannot be told apart on this data (held-out gains "
-                             f"{gain:.0f} vs {g:.0f}, contributions correlated {corr:+.2f}); "
+                             f"{t.channel} cannot be told apart on this data (each alone "
+                             f"removes {_share(gain, base)} vs {_share(g, base)} of the "
+                             f"held-out squared residual left before it; contributions "
+                             f"correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
+
+
+def _share(part: float, whole: float) -> str:
+    """``part`` as a percentage of ``whole`` for report text ("83 %")."""
+    return f"{100.0 * part / whole:.0f} %" if whole > 0 else "n/a"

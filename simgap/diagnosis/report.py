@@ -1,15 +1,21 @@
 """Step 6 of the diagnosis: report.json, report.md with PNG figures, terminal summary.
 
 :func:`write_report` builds everything in a temporary folder next to the target and moves
-it into place at the end, so a failure leaves nothing half-written. Figures (matplotlib,
-Agg backend):
+it into place at the end, so a failure leaves nothing half-written. Figures are
+:class:`matplotlib.figure.Figure` objects (no pyplot state, no backend switch, so importing
+this module leaves a notebook's inline backend alone):
 
 * ``residual_time.png``: residual per channel over time, ± noise floor band, the fitted
   effects' total, the located segments shaded;
 * ``residual_vs_variable.png``: residual per channel against the located variable, with the
   binned mean and the fitted effects' contribution;
-* ``simulation.png``: recorded vs nominal vs augmented open-loop simulations over the first
-  test windows.
+* ``simulation.png``: recorded vs nominal vs augmented open-loop simulations over the whole
+  test part.
+
+Fitted contributions are drawn only where they were fitted: samples the fit leaves out (a
+joint's stick phases, ``system.fit_mask()``) are NaN, so the curve has a gap there instead of
+dropping to zero. Legends sit beside the axes, never on the data; figures of long recordings
+grow wider (:func:`figure_width`).
 """
 
 from __future__ import annotations
@@ -21,17 +27,22 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from simgap.diagnosis.augmented import save_model  # noqa: E402
-from simgap.diagnosis.locate import binned  # noqa: E402
-from simgap.diagnosis.pipeline import fmt  # noqa: E402
+from simgap._plotting import legend_outside
+from simgap.diagnosis.augmented import save_model
+from simgap.diagnosis.locate import binned
+from simgap.diagnosis.pipeline import fmt
 
 MAX_POINTS = 4000
+#: Figure width (in) of recordings up to :data:`WIDE_AFTER_S` long; longer ones grow to
+#: :data:`MAX_WIDTH_IN` at :data:`WIDTH_S_PER_IN` seconds per extra inch.
+BASE_WIDTH_IN, MAX_WIDTH_IN, WIDE_AFTER_S, WIDTH_S_PER_IN = 9.0, 24.0, 60.0, 25.0
+#: Text that defines the simulation score wherever it is printed.
+SCORE_MEANING = ("RMS over the states of simulation RMSE / the state's standard deviation "
+                 "on the test part; 0 is perfect, 1 is an error as large as the signal's "
+                 "spread")
 
 
 def finite_json(obj: Any) -> Any:
@@ -57,8 +68,9 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
     else:
         for c in mm["channels"]:
             state = "ABOVE" if c["significant"] else "within"
-            lines.append(f"  {c['channel']}: residual RMS {c['residual_rms']:.3g} "
-                         f"{c.get('unit', '')}, noise {c['noise_rms']:.3g} ({state} noise)")
+            unit = unit_suffix(c.get("unit", ""))
+            lines.append(f"  {c['channel']}: residual RMS {c['residual_rms']:.3g}{unit}, "
+                         f"noise {c['noise_rms']:.3g}{unit} ({state} noise)")
         for r in mm["regions"]:
             lines.append(f"  where: {r['channel']}: {r['text']}")
     for e in data["effects"]:
@@ -69,48 +81,85 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
         lines.append(f"  unexplained: {100 * data['unexplained_fraction']:.0f} % of the "
                      "held-out residual is not explained by a named effect")
     f = data["fit"]
-    lines.append(f"  held-out simulation error score ({f['horizon_s']:g} s windows): nominal "
-                 f"{f['nominal']['rollout_score']:.3g} -> augmented "
+    lines.append(f"  held-out simulation error ({f['horizon_s']:g} s windows, RMSE / state std):"
+                 f" nominal {f['nominal']['rollout_score']:.3g} -> augmented "
                  f"{f['augmented']['rollout_score']:.3g}")
     return lines
+
+
+def unit_suffix(unit: str) -> str:
+    """`` N·m`` for a unit, empty for dimensionless values (``-`` or no unit)."""
+    return "" if unit in ("", "-") else f" {unit}"
+
+
+def figure_width(duration: float) -> float:
+    """Figure width (in) for a time axis of ``duration`` seconds (wider for long recordings)."""
+    extra = max(0.0, duration - WIDE_AFTER_S) / WIDTH_S_PER_IN
+    return float(min(MAX_WIDTH_IN, BASE_WIDTH_IN + extra))
+
+
+def fitted_for_plot(report) -> np.ndarray:
+    """The fitted contribution (N, C) with NaN where the fit left a channel's samples out."""
+    pred = np.array(report.fitted_pred, dtype=float)
+    mask_fn = getattr(report.system, "fit_mask", None)
+    if mask_fn is not None:
+        mask = np.asarray(mask_fn(), dtype=bool)
+        if mask.shape == pred.shape:
+            pred[~mask] = np.nan
+    return pred
+
+
+def _legend_outside(ax) -> None:
+    legend_outside(ax, fontsize=7, markerscale=3)
 
 
 def _thin(n: int) -> np.ndarray:
     return np.arange(0, n, max(1, n // MAX_POINTS))
 
 
-def _fig_residual_time(report, path: Path) -> None:
+def residual_time_figure(report):
+    """``residual_time.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
     sys, t = report.system, report.system.t
     nc = len(sys.channels)
-    fig, axes = plt.subplots(nc, 1, figsize=(9, 2.6 * nc), sharex=True, squeeze=False)
+    fig = Figure(figsize=(figure_width(float(t[-1] - t[0])), 2.6 * nc))
+    axes = fig.subplots(nc, 1, sharex=True, squeeze=False)
     idx = _thin(len(t))
+    fitted = fitted_for_plot(report)
     for i, ax in enumerate(axes[:, 0]):
         ax.plot(t[idx], report.residual[idx, i], lw=0.6, color="0.35", label="residual")
         ax.fill_between(t[idx], -report.noise[i], report.noise[i], color="tab:blue", alpha=0.2,
                         label="± noise floor")
         if report.term_preds:
-            ax.plot(t[idx], report.fitted_pred[idx, i], lw=0.9, color="tab:red",
+            ax.plot(t[idx], fitted[idx, i], lw=0.9, color="tab:red",
                     label="named effects")
         for s in report.data["mismatch"]["segments"]:
             if s["channel"] == sys.channels[i]:
                 ax.axvspan(s["t_start"], s["t_end"], color="tab:orange", alpha=0.25)
-        ax.axvline(report.data["fit"]["split"]["test"][0], color="k", ls="--", lw=0.8)
+        ax.axvline(report.data["fit"]["split"]["test"][0], color="k", ls="--", lw=0.8,
+                   label="train | test")
         ax.set_ylabel(f"{sys.channels[i]} ({sys.channel_units[i]})")
-        ax.legend(loc="upper right", fontsize=7)
+        _legend_outside(ax)
     axes[-1, 0].set_xlabel("time t (s)")
     axes[0, 0].set_title("Residual over time (shaded: located segments; dashed: train | test)")
     fig.tight_layout()
+    return fig
+
+
+def _fig_residual_time(report, path: Path) -> None:
+    fig = residual_time_figure(report)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
-def _fig_residual_vs(report, path: Path) -> None:
+def residual_vs_figure(report):
+    """``residual_vs_variable.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
     sys = report.system
     variables = sys.locate_variables()
     nc = len(sys.channels)
-    fig, axes = plt.subplots(1, nc, figsize=(5 * nc, 3.8), squeeze=False)
+    fig = Figure(figsize=(6 * nc, 3.8))
+    axes = fig.subplots(1, nc, squeeze=False)
     regions = report.data["mismatch"]["regions"]
     idx = _thin(len(sys.t))
+    fitted = fitted_for_plot(report)
     for i, ax in enumerate(axes[0]):
         ch = sys.channels[i]
         cand = [r["variable"] for r in regions if r["channel"] == ch and r["variable"] in
@@ -121,22 +170,28 @@ def _fig_residual_vs(report, path: Path) -> None:
         xb, rb, _ = binned(x, report.residual[:, i])
         ax.plot(xb, rb, "o-", color="k", ms=3, lw=1, label="binned mean")
         if report.term_preds:
-            ax.scatter(x[idx], report.fitted_pred[idx, i], s=2, color="tab:red",
-                       label="fitted effects")
+            ax.scatter(x[idx], fitted[idx, i], s=2, color="tab:red", label="fitted effects")
         ax.set_xlabel(f"{var} ({unit})")
         ax.set_ylabel(f"residual at {ch} ({sys.channel_units[i]})")
         ax.set_title(f"{ch}: residual vs {var}")
-        ax.legend(fontsize=7, markerscale=3)
+        _legend_outside(ax)
     fig.tight_layout()
+    return fig
+
+
+def _fig_residual_vs(report, path: Path) -> None:
+    fig = residual_vs_figure(report)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
-def _fig_simulation(report, path: Path) -> None:
+def simulation_figure(report):
+    """``simulation.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
     ex = report.comparison.example
     names, units = report.data["fit"]["rollout_names"], report.data["fit"]["rollout_units"]
     n = len(names)
-    fig, axes = plt.subplots(n, 1, figsize=(9, 2.2 * n), sharex=True, squeeze=False)
+    span = float(ex["t"][-1] - ex["t"][0]) if len(ex["t"]) else 0.0
+    fig = Figure(figsize=(figure_width(span), 2.2 * n))
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)
     breaks = list(ex["breaks"])
     wl = int(ex["window_len"])
     seg = [np.arange(k, min(k + wl, len(ex["t"]))) for k in range(0, len(ex["t"]), wl)]
@@ -148,16 +203,21 @@ def _fig_simulation(report, path: Path) -> None:
                     label="nominal" if k == 0 else None)
             ax.plot(ex["t"][s], ex["augmented"][s, i], color="tab:red", lw=1,
                     label="augmented" if k == 0 else None)
-        for b in breaks:
-            ax.axvline(b, color="0.8", lw=0.6)
+        for k, b in enumerate(breaks):
+            ax.axvline(b, color="0.8", lw=0.6,
+                       label="restart from the recorded state" if k == 0 else None)
         ax.set_ylabel(f"{names[i]} ({units[i]})")
-        ax.legend(loc="upper right", fontsize=7)
+        _legend_outside(ax)
     axes[-1, 0].set_xlabel("time t (s)")
     axes[0, 0].set_title(f"Held-out open-loop simulations from recorded states "
-                         f"({report.comparison.horizon:g} s windows)")
+                         f"({report.comparison.horizon:g} s windows, whole test part)")
     fig.tight_layout()
+    return fig
+
+
+def _fig_simulation(report, path: Path) -> None:
+    fig = simulation_figure(report)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def markdown(data: dict[str, Any]) -> str:
@@ -169,8 +229,9 @@ def markdown(data: dict[str, Any]) -> str:
     out += ["", "## Where", "", "| channel | residual RMS | noise RMS | significant |",
             "|---|---|---|---|"]
     for c in data["mismatch"]["channels"]:
-        out.append(f"| {c['channel']} | {c['residual_rms']:.4g} {c.get('unit', '')} | "
-                   f"{c['noise_rms']:.4g} | {'yes' if c['significant'] else 'no'} |")
+        unit = unit_suffix(c.get("unit", ""))
+        out.append(f"| {c['channel']} | {c['residual_rms']:.4g}{unit} | "
+                   f"{c['noise_rms']:.4g}{unit} | {'yes' if c['significant'] else 'no'} |")
     if data["mismatch"]["segments"]:
         out += ["", "Segments where the residual is largest: " + ", ".join(
             f"{s['channel']} {s['t_start']:.2f}–{s['t_end']:.2f} s"
@@ -181,8 +242,8 @@ def markdown(data: dict[str, Any]) -> str:
     if data["effects"]:
         out += ["| effect | channel | parameters (± stderr) | explained |", "|---|---|---|---|"]
         for e in data["effects"]:
-            ps = ", ".join("{} = {} ± {} {}".format(k, *fmt(v, e["stderr"][k]),
-                                                    e.get("units", {}).get(k, "")).strip()
+            ps = ", ".join("{} = {} ± {}".format(k, *fmt(v, e["stderr"][k]))
+                           + unit_suffix(e.get("units", {}).get(k, ""))
                            for k, v in e["parameters"].items())
             out.append(f"| {e['effect']} | {e['channel']} | {ps} | "
                        f"{100 * e['explained_fraction']:.0f} % |")
@@ -204,12 +265,13 @@ def markdown(data: dict[str, Any]) -> str:
         out.append(f"| derivative RMSE, {m} | " + " | ".join(
             f"{v:.4g}" for v in f[m]["derivative_rmse"]) + " |")
     out += ["", "| error | " + " | ".join(f"{n} ({u})" for n, u in zip(
-        f["rollout_names"], f["rollout_units"], strict=True)) + " | score |",
+        f["rollout_names"], f["rollout_units"], strict=True)) + " | score¹ |",
         "|---|" + "---|" * (len(f["rollout_names"]) + 1)]
     for m in ("nominal", "augmented"):
         out.append(f"| simulation RMSE, {m} | " + " | ".join(
             f"{v:.4g}" for v in f[m]["rollout_rmse"]) + f" | {f[m]['rollout_score']:.3g} |")
-    out += ["", "![nominal vs augmented simulation](simulation.png)", "",
+    out += ["", f"¹ score: {SCORE_MEANING}.", "",
+            "![nominal vs augmented simulation](simulation.png)", "",
             "The augmented model is saved as `augmented_model.json` "
             "(`simgap.diagnosis.load_augmented`).", ""]
     return "\n".join(out)

@@ -10,8 +10,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from simgap.envs._common import check_count
-
 Policy = Callable[[np.ndarray, float], np.ndarray]
 
 
@@ -77,6 +75,8 @@ def rollout(env: gym.Env, policy: Policy, n_steps: int, *, seed: int | None = No
     Returns:
         The stacked :class:`Rollout`.
     """
+    from simgap.envs._common import check_count  # numba: imported on use, so that
+    # `import simgap` (env registration, the CLI's argument checks) stays light
     n_steps = check_count("n_steps", n_steps)
     dt = _env_dt(env)
     obs, info = env.reset(seed=seed, options=options)

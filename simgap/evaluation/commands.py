@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from simgap._cli_paths import REPRODUCE_OUT
+
 
 def register(app: typer.Typer) -> None:
     """Add ``reproduce`` to ``app``."""
@@ -18,7 +20,7 @@ def register(app: typer.Typer) -> None:
         quick: Annotated[bool, typer.Option("--quick", help="Short CI variant.")] = False,
         out: Annotated[Path, typer.Option(
             "--out", help="Folder for results.json, report.md and the PNGs.")
-        ] = Path("reproduce-output"),
+        ] = REPRODUCE_OUT,
         seed: Annotated[int, typer.Option(
             "--seed", help="Seed of envs and identifier weights.")] = 0,
         timing_runs: Annotated[int | None, typer.Option(
@@ -42,6 +44,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+        from simgap._log import line, log
         from simgap.evaluation.errors import EvaluationError
         from simgap.evaluation.pipeline import reproduce as run
 
@@ -58,13 +61,14 @@ def register(app: typer.Typer) -> None:
 
             try:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
-                          progress=progress, log=lambda m: bar.console.log(m))
+                          progress=progress, log=lambda m: bar.console.print(line(m), markup=False,
+                                                                highlight=False))
             except EvaluationError as exc:
                 bar.stop()
                 console.print(f"error: {exc}", style="red", markup=False)
                 raise typer.Exit(2) from None
         for path in res["files"]:
-            console.log(f"wrote {path}")
+            log(f"wrote {path}")
 
 
 def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
@@ -73,6 +77,7 @@ def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from simgap._log import log
     from simgap.errors import SimgapError
     from simgap.evaluation.sweep import parse_cases, reproduce_sweep
     from simgap.sweeps import parse_seeds
@@ -90,9 +95,8 @@ def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
         console.print(f"error: {exc}", style="red", markup=False)
         raise typer.Exit(2) from None
     for f in res["failed"]:
-        console.print(f"failed: case {f['args'][1]} seed {f['args'][3]}: {f['error']}",
-                      markup=False)
+        log(f"failed: case {f['args'][1]} seed {f['args'][3]}: {f['error']}")
     for path in res["files"]:
-        console.print(f"wrote {path}", markup=False)
+        log(f"wrote {path}")
     if res["failed"]:
         raise typer.Exit(1)

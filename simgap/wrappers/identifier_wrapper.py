@@ -74,9 +74,14 @@ def _is_mujoco_env(env: gym.Env | Any) -> bool:
     return type(getattr(base, "model", None)).__name__ == "MjModel" and hasattr(base, "data")
 
 
-def nominal_model_of(env: gym.Env | Any) -> NominalModel:
-    """``env.unwrapped.nominal_model``, checked against the protocol (clear error otherwise)."""
-    model = getattr(getattr(env, "unwrapped", env), "nominal_model", None)
+def nominal_model_of(env: gym.Env | Any, model: NominalModel | None = None) -> NominalModel:
+    """The nominal model of ``env``, checked against the protocol.
+
+    ``model`` if given, else ``env.unwrapped.nominal_model``, else one built from a Gymnasium
+    MuJoCo env's ``model`` and ``data``.
+    """
+    if model is None:
+        model = getattr(getattr(env, "unwrapped", env), "nominal_model", None)
     if model is None and _is_mujoco_env(env):  # Gymnasium's MuJoCo envs (model + data)
         from simgap.models.mujoco import from_mujoco_env
 
@@ -86,7 +91,8 @@ def nominal_model_of(env: gym.Env | Any) -> NominalModel:
             raise IdentifierError(str(err)) from None
     if model is None:
         raise IdentifierError(f"{type(getattr(env, 'unwrapped', env)).__name__} has no "
-                              f"'nominal_model' attribute; see simgap.models.base.NominalModel")
+                              f"'nominal_model' attribute; pass one with IdentifierWrapper(env, "
+                              f"model=...) (see simgap.models.base.NominalModel)")
     if not isinstance(model, NominalModel):
         raise IdentifierError(f"nominal_model {model!r} lacks part of the NominalModel "
                               f"protocol (state_names, state_units, input_names, input_units, "
@@ -169,16 +175,19 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``config=preset("manipulator", kind)`` (Table 4.3), ``preset("bicycle", kind)``.
         seed: seed of the identifier's initial weights.
         reset_identifier_on_seed: see the module docstring.
+        model: the nominal model f(x, u) of ``env`` (the ``NominalModel`` protocol); ``None``
+            = ``env.unwrapped.nominal_model``. For a user's own env that does not carry one.
     """
 
     def __init__(self, env: gym.Env, identifier: str | Identifier = "integral", *,
                  frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True) -> None:
+                 reset_identifier_on_seed: bool = True,
+                 model: NominalModel | None = None) -> None:
         gym.utils.RecordConstructorArgs.__init__(
             self, identifier=identifier, frozen=frozen, config=config, seed=seed,
-            reset_identifier_on_seed=reset_identifier_on_seed)
+            reset_identifier_on_seed=reset_identifier_on_seed, model=model)
         gym.Wrapper.__init__(self, env)
-        self.nominal_model = nominal_model_of(env)
+        self.nominal_model = nominal_model_of(env, model)
         self.identifier = build_identifier(self.nominal_model, identifier, config, seed)
         if frozen:
             self.identifier.freeze()
