@@ -4,6 +4,10 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
 # ---
 
 # %% [markdown]
@@ -27,6 +31,7 @@
 # `SIMGAP_QUICK=1` the log is 5 s long, otherwise 20 s.
 
 # %%
+# %matplotlib inline
 import os
 from pathlib import Path
 
@@ -42,7 +47,9 @@ from simgap.diagnosis.mujoco import diagnose_mjcf
 QUICK = os.environ.get("SIMGAP_QUICK") == "1"
 OUT = Path(os.environ.get("SIMGAP_NOTEBOOK_OUT", "notebook-output")) / "mujoco_robot_log"
 OUT.mkdir(parents=True, exist_ok=True)
-ARM = Path("examples/mujoco/arm2dof.xml")
+# Jupyter runs a notebook in its own folder (notebooks/): paths start from there.
+REPO = Path.cwd().parent
+ARM = REPO / "examples" / "mujoco" / "arm2dof.xml"
 
 # %% [markdown]
 # ## 1. The "real" robot and its log

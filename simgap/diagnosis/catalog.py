@@ -1,9 +1,8 @@
 """What ``simgap record --effect`` accepts: effects, channels, parameters with units.
 
 :func:`injectable_effects` is the one place the command line reads the effect table from
-(today :mod:`simgap.diagnosis.generate`'s ``MANIPULATOR_EFFECTS`` / ``BICYCLE_EFFECTS``, with
-units from the vocabulary in :mod:`simgap.diagnosis.effects`), so that ``--list-effects``,
-the docs and the error messages cannot disagree with what the generator takes.
+(the system registry's effect vocabulary, which the generator validates against), so that
+``--list-effects``, the docs and the error messages cannot disagree with the generator.
 """
 
 from __future__ import annotations
@@ -11,15 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from simgap.errors import GeneratorError
-
-#: Models ``simgap record --model`` accepts.
-RECORD_MODELS = ("manipulator2dof", "bicycle")
-#: Units of injection parameters that the vocabulary's fitted form names differently
-#: (``cornering_stiffness`` etc. are fitted as ``ratio_minus_1``; the spring's rest angle
-#: is reported, not fitted; ``tire_relaxation`` lies outside the vocabulary).
-_EXTRA_UNITS = {"ratio": "-", "q0": "rad", "length": "m"}
-#: Parameters the generator lets one leave out, with the value it then uses.
-_DEFAULTS = {("spring", "q0"): 0.0}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -59,35 +49,32 @@ class EffectInfo:
 
 
 def injectable_effects(model: str) -> list[EffectInfo]:
-    """The effects ``simgap record --model MODEL --effect ...`` accepts.
+    """The effects ``simgap record --model MODEL --effect ...`` accepts, from the registry.
+
+    Names, channels, parameters, units and defaults all come from the system's effect
+    vocabulary (:class:`~simgap.models.effects.EffectSpec` in
+    :data:`simgap.systems.SYSTEMS`), the same objects the generator validates against.
 
     Args:
-        model: ``"manipulator2dof"`` or ``"bicycle"``.
+        model: a registered system with a generator (``"manipulator2dof"``, ``"bicycle"``).
 
     Raises:
-        GeneratorError: unknown model.
+        GeneratorError: unknown model, or a system without a recording generator.
     """
-    from simgap.diagnosis import generate
-    from simgap.diagnosis.effects import VOCABULARY
+    from simgap.models.effects import format_unit
+    from simgap.systems import SYSTEMS
 
-    tables = {"manipulator2dof": (generate.MANIPULATOR_EFFECTS, generate.JOINTS),
-              "bicycle": (generate.BICYCLE_EFFECTS, generate.AXLES)}
-    if model not in RECORD_MODELS:
-        raise GeneratorError(f"unknown model {model!r}; use one of {list(RECORD_MODELS)}")
-    table, channels = tables[model]
-    rows = []
-    for name, (per_channel, names) in table.items():
-        voc = VOCABULARY.get(name)
-        units = dict(_EXTRA_UNITS)
-        if voc is not None:
-            units.update(zip(voc.lin + voc.nl, voc.lin_units + voc.nl_units, strict=True))
-        rows.append(EffectInfo(
-            name=name, label=voc.label if voc is not None else "",
-            channels=channels if per_channel else (),
-            params=tuple(ParamInfo(name=p, unit=units.get(p, "?"),
-                                   default=_DEFAULTS.get((name, p))) for p in names),
-            in_vocabulary=voc is not None))
-    return rows
+    spec = SYSTEMS.get(model)
+    if spec is None or spec.generator is None or spec.plant_schema is None:
+        known = [n for n, s in SYSTEMS.items() if s.generator and s.plant_schema]
+        raise GeneratorError(f"unknown model {model!r}; use one of {known}")
+    schema = spec.plant_schema
+    return [EffectInfo(
+        name=e.name, label=e.label if e.vocabulary else "",
+        channels=schema.channels if e.scope == "channel" else (),
+        params=tuple(ParamInfo(name=p.name, unit=format_unit(p.unit), default=p.default)
+                     for p in e.params),
+        in_vocabulary=e.vocabulary) for e in schema.vocabulary]
 
 
 def effect_table_lines(model: str) -> list[str]:

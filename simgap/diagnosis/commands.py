@@ -156,16 +156,18 @@ def register(app: typer.Typer) -> None:
             except GeneratorError as err:
                 _fail(str(err))
             return
-        from simgap.diagnosis.catalog import RECORD_MODELS
-
-        if model not in RECORD_MODELS:
-            _fail(f"unknown model {model!r}; use one of {list(RECORD_MODELS)}")
         if out is None:
             _fail("missing the output recording OUT.csv (or use --list-effects)")
         if out.suffix.lower() not in (".csv", ".parquet"):
             _fail(f"{out}: unknown file type {out.suffix!r}; use .csv or .parquet")
         if not out.parent.exists():
             _fail(f"{out.parent}: folder does not exist")
+        from simgap.diagnosis.catalog import injectable_effects
+
+        try:  # the model name is looked up in the system registry (imports the models)
+            injectable_effects(model)
+        except GeneratorError as err:
+            _fail(str(err))
         kwargs: dict = {"seed": seed}
         if duration is not None:
             kwargs["duration"] = duration
