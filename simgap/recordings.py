@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from simgap.errors import ColumnMapError, RecordingError
+from simgap.schema import RecordingSchema
 
 #: Fewest samples any diagnosis can say something about.
 MIN_SAMPLES = 50
@@ -261,62 +262,6 @@ def write_recording(path: str | os.PathLike, data: Mapping[str, np.ndarray] | pd
 
 
 # --------------------------------------------------------------------------- schemas
-@dataclass(frozen=True, kw_only=True)
-class RecordingSchema:
-    """The canonical recording columns of one system.
-
-    Attributes:
-        canonical: column names the system reads, ``t`` (s) first, in SI units (e.g.
-            ``t, q1, q2, dq1, dq2, tau1, tau2`` for the arm; ``t, q, dq, u`` for a 1-DOF axis).
-        derivable: canonical columns the diagnosis may compute when the file lacks them
-            (velocities, by differentiating positions).
-        input_hold: ``"zoh"`` if each logged input is held until the next sample, else
-            ``"sample"``.
-    """
-
-    canonical: tuple[str, ...]
-    derivable: tuple[str, ...] = ()
-    input_hold: str = "zoh"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "canonical", tuple(self.canonical))
-        object.__setattr__(self, "derivable", tuple(self.derivable))
-        if "t" not in self.canonical:
-            raise ColumnMapError(f"recording schema {list(self.canonical)} has no time column 't'")
-        stray = [c for c in self.derivable if c not in self.canonical]
-        if stray:
-            raise ColumnMapError(f"derivable column {stray[0]!r} is not one of the canonical "
-                                 f"columns {list(self.canonical)}")
-        if self.input_hold not in ("zoh", "sample"):
-            raise ColumnMapError(f"input_hold must be 'zoh' or 'sample', got "
-                                 f"{self.input_hold!r}")
-
-    @property
-    def required(self) -> tuple[str, ...]:
-        """Canonical columns that must come from the file (or a constant)."""
-        return tuple(c for c in self.canonical if c not in self.derivable)
-
-    @classmethod
-    def of(cls, model: Any) -> RecordingSchema:
-        """Schema declared by a model.
-
-        ``model.recording_schema`` if set, else ``recording_columns`` and
-        ``derivable_columns``.
-
-        Raises:
-            ColumnMapError: the model declares no recording columns.
-        """
-        schema = getattr(model, "recording_schema", None)
-        if isinstance(schema, RecordingSchema):
-            return schema
-        canonical = tuple(getattr(model, "recording_columns", ()) or ())
-        if not canonical:
-            name = getattr(model, "name", None) or type(model).__name__
-            raise ColumnMapError(f"{name} has no recording_columns: a model must list its "
-                                 "canonical recording columns")
-        return cls(canonical=canonical,
-                   derivable=tuple(getattr(model, "derivable_columns", ()) or ()))
-
 
 # --------------------------------------------------------------------------- column maps
 @dataclass(frozen=True, kw_only=True)

@@ -33,21 +33,7 @@ from simgap.errors import ModelError
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.effects import EffectSpec, Plant, PlantSchema
-
-
-@dataclass(frozen=True, kw_only=True)
-class RecordingSchema:
-    """Canonical recording columns of a system.
-
-    Attributes:
-        canonical: the columns a recording holds (``t`` first).
-        derivable: columns that may be left out and derived (e.g. velocities from positions).
-        input_hold: how the input acts between samples (``"zoh"``: held).
-    """
-
-    canonical: tuple[str, ...]
-    derivable: tuple[str, ...] = ()
-    input_hold: str = "zoh"
+from simgap.schema import RecordingSchema
 
 
 @dataclass(frozen=True, kw_only=True)
