@@ -28,8 +28,13 @@ def demo(out: Path = typer.Option(Path("demo-output"), help="Folder for the figu
          seed: int = typer.Option(0, help="Seed of the rollouts.")) -> None:
     """Run the main job on built-in data and write figures to OUT."""
     from simgap.demo import run_demo
+    from simgap.errors import SimgapError
 
-    run_demo(out, seed=seed)
+    try:
+        run_demo(out, seed=seed)
+    except SimgapError as err:  # e.g. --out holds the user's files (simgap.outputs)
+        typer.echo(f"error: {str(err).splitlines()[0]}", err=True)
+        raise typer.Exit(2) from None
 
 
 diagnosis_commands.register(app)

@@ -28,6 +28,7 @@ from simgap.envs.scenarios import (
     slalom,
     step_steer,
 )
+from simgap.outputs import output_folder
 
 #: Seconds of simulated manipulator motion per scenario (two back-and-forth thesis cycles).
 MANIPULATOR_SECONDS = 8.0
@@ -126,7 +127,8 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
     """Roll out both envs with their scenarios and write PNG figures into ``out``.
 
     Args:
-        out: output folder (created if missing).
+        out: output folder: new, empty, or a previous simgap output (which is replaced);
+            written transactionally by :func:`simgap.outputs.output_folder`.
         seed: seed of the env resets and of the random-waypoint reference.
         duration_scale: fraction of each scenario to simulate (1 = full; tests use less).
         reproduce: also run ``simgap reproduce --case all --quick`` into ``out/reproduce``
@@ -135,9 +137,20 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
     Returns:
         Paths of the written PNG files.
     """
+    if not 0 < duration_scale <= 1:
+        raise ValueError(f"duration_scale must be in (0, 1], got {duration_scale!r}")
+    with output_folder(out, kind="demo") as tmp:
+        written = _demo(tmp, seed, duration_scale, reproduce)
     console = Console(stderr=True)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    final = [Path(out) / p.relative_to(tmp) for p in written]
+    for p in final:
+        console.log(f"wrote {p}")
+    return final
+
+
+def _demo(out: Path, seed: int, duration_scale: float, reproduce: bool) -> list[Path]:
+    """The demo's work, written into ``out`` (the temporary folder of :func:`run_demo`)."""
+    console = Console(stderr=True)
     written: list[Path] = []
     frames: list[tuple[str, np.ndarray]] = []
 
@@ -147,8 +160,6 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
         ("manipulator_waypoints.png", f"Arm, random-waypoint reference (seed {seed})",
          lambda: RandomWaypointReference(seed)),
     ]
-    if not 0 < duration_scale <= 1:
-        raise ValueError(f"duration_scale must be in (0, 1], got {duration_scale!r}")
     n_manip = max(2, int(round(duration_scale * MANIPULATOR_SECONDS / 0.002)))
     for fname, title, make_ref in manip_cases:
         console.log(f"manipulator: {title} ({n_manip} steps)")
@@ -188,7 +199,4 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
         rep = run_reproduce(out / "reproduce", case="all", quick=True, seed=seed,
                             log=console.log)
         written.extend(Path(p) for p in rep["files"] if str(p).endswith(".png"))
-        console.log(f"wrote {out / 'reproduce' / 'report.md'}")
-    for p in written:
-        console.log(f"wrote {p}")
     return written

@@ -1,18 +1,20 @@
 """CLI commands of the diagnosis: ``simgap diagnose`` and ``simgap record``.
 
 Registered on the main typer app by :mod:`simgap.cli`. Bad input ends with one line on
-stderr (``error: <file>: <what>``) and exit status 2; nothing is left half-written (the
-report folder and the recording are written to temporary names and moved into place).
+stderr (``error: <file>: <what>``) and exit status 2; nothing is left half-written and
+nothing of the user's is replaced (:mod:`simgap.outputs`: the output target is checked
+before any work, written under temporary names and moved into place when complete).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import typer
+
+from simgap.errors import SimgapError
+from simgap.outputs import check_file_target, check_folder_target, output_files
 
 EXIT_BAD_INPUT = 2
 
@@ -77,15 +79,16 @@ def register(app: typer.Typer) -> None:
         figures: bool = typer.Option(True, help="Write the PNG figures."),
     ) -> None:
         """Locate and name the physics a recording has and the nominal model lacks."""
-        from simgap.diagnosis.custom import CustomModelError, diagnose_custom
-        from simgap.diagnosis.generate import GeneratorError
-        from simgap.diagnosis.pipeline import DiagnosisError, default_out_dir
+        from simgap.diagnosis.custom import diagnose_custom
+        from simgap.diagnosis.pipeline import default_out_dir
         from simgap.diagnosis.pipeline import diagnose as run
         from simgap.diagnosis.report import summary_lines, write_report
-        from simgap.recordings import RecordingError
 
         overrides = _load_params(params)
+        target = out or default_out_dir(recording)
+        inputs = (recording, params, model.rsplit(":", 1)[0] if ":" in model else None)
         try:
+            check_folder_target(target, inputs=inputs)
             if ":" in model:  # a user-defined model file (simgap.diagnosis.custom)
                 if overrides:
                     _fail(f"{params}: --params applies to built-in models only; set the "
@@ -93,13 +96,9 @@ def register(app: typer.Typer) -> None:
                 report = diagnose_custom(model, recording)
             else:
                 report = run(recording, model, overrides)
-        except (RecordingError, DiagnosisError, GeneratorError, CustomModelError) as err:
+            write_report(report, target, figures=figures, inputs=inputs)
+        except SimgapError as err:
             _fail(str(err))
-        target = out or default_out_dir(recording)
-        try:
-            write_report(report, target, figures=figures)
-        except OSError as err:
-            _fail(f"{target}: cannot write the report ({err.strerror or err})")
         for line in summary_lines(report.data):
             typer.echo(line)
         typer.echo(f"report: {target / 'report.md'}")
@@ -121,28 +120,26 @@ def register(app: typer.Typer) -> None:
                                    "injected (the diagnosis never reads it)."),
     ) -> None:
         """Generate a recording with concealed effects (closed loop or scripted steering)."""
-        from simgap.diagnosis.generate import GeneratorError, generate
-        from simgap.recordings import RecordingError, write_recording
+        from simgap.diagnosis.generate import generate
+        from simgap.recordings import write_recording
 
         if out.suffix.lower() not in (".csv", ".parquet"):
             _fail(f"{out}: unknown file type {out.suffix!r}; use .csv or .parquet")
-        if not out.parent.exists():
-            _fail(f"{out.parent}: folder does not exist")
+        targets = [out, out.with_name(out.name + ".truth.json")] if truth else [out]
         kwargs: dict = {"seed": seed}
         if duration is not None:
             kwargs["duration"] = duration
         if model == "bicycle":
             kwargs.update(program=program, vx=vx)
         try:
+            for t in targets:
+                check_file_target(t)
             effects = [parse_effect(e) for e in effect]
             rec = generate(model, effects, name=out.name, **kwargs)
-            write_recording(out, rec.columns)
-        except (GeneratorError, RecordingError, ValueError) as err:
+            with output_files(targets) as tmps:
+                write_recording(tmps[0], rec.columns)
+                if truth:
+                    tmps[1].write_text(json.dumps(rec.meta, indent=2), encoding="utf-8")
+        except (SimgapError, ValueError) as err:
             _fail(str(err))
-        if truth:
-            side = out.with_name(out.name + ".truth.json")
-            fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{side.name}.")
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(rec.meta, fh, indent=2)
-            os.replace(tmp, side)
         typer.echo(f"wrote {out} ({rec.n} samples, {len(effects)} hidden effect(s))")

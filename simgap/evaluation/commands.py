@@ -28,7 +28,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-        from simgap.evaluation.errors import EvaluationError
+        from simgap.errors import SimgapError
         from simgap.evaluation.pipeline import reproduce as run
 
         console = Console(stderr=True)
@@ -45,7 +45,7 @@ def register(app: typer.Typer) -> None:
             try:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
                           progress=progress, log=lambda m: bar.console.log(m))
-            except EvaluationError as exc:
+            except SimgapError as exc:  # EvaluationError, OutputError
                 bar.stop()
                 console.print(f"error: {exc}", style="red", markup=False)
                 raise typer.Exit(2) from None
