@@ -8,8 +8,6 @@ with a single line naming the column/flag and the likely cause; hangs run under 
 from __future__ import annotations
 
 import os
-import signal
-from contextlib import contextmanager
 
 import numpy as np
 import pandas as pd
@@ -18,23 +16,9 @@ from typer.testing import CliRunner
 
 from simgap.cli import app
 from simgap.errors import EnvError, IdentifierError, RecordingError
+from tests.fuzz import time_limit
 
 runner = CliRunner()
-
-
-@contextmanager
-def time_limit(seconds: float):
-    """Fail (instead of hanging) if the block runs longer than ``seconds``."""
-    def _raise(*_):
-        raise TimeoutError(f"hang: still running after {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, _raise)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,6 @@ file, ``--out`` an existing regular file) and the same rule for ``record``, ``re
 from __future__ import annotations
 
 import json
-import os
 
 import pytest
 from typer.testing import CliRunner
@@ -16,21 +15,9 @@ from typer.testing import CliRunner
 from simgap.cli import app
 from simgap.errors import OutputError
 from simgap.outputs import MARKER, is_previous_output, output_files, output_folder
+from tests.fuzz import snapshot
 
 runner = CliRunner()
-
-
-def snapshot(root) -> dict[str, bytes | None]:
-    """Every entry under ``root`` (hidden ones included): file bytes, or None for folders."""
-    out = {}
-    for dirpath, dirs, files in os.walk(root):
-        for d in dirs:
-            out[os.path.relpath(os.path.join(dirpath, d), root)] = None
-        for f in files:
-            p = os.path.join(dirpath, f)
-            with open(p, "rb") as fh:
-                out[os.path.relpath(p, root)] = fh.read()
-    return out
 
 
 @pytest.fixture(scope="module")
