@@ -7,14 +7,43 @@ stays a thin index: ``demo`` (here), ``reproduce`` (evaluation), ``diagnose`` an
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import typer
+from typer.core import TyperGroup
+from typer.exceptions import Abort, TyperException
 
 from simgap.diagnosis import commands as diagnosis_commands
 from simgap.evaluation import commands as evaluation_commands
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+
+class _OneLineErrors(TyperGroup):
+    """Usage errors (bad option value, missing argument) as one ``error:`` line, exit 2.
+
+    typer would draw a multi-line panel; simgap's contract is one line for every bad input.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
+             **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, False, **extra)
+        except TyperException as err:
+            if type(err).__name__ == "NoArgsIsHelpError":  # bare `simgap`: show the help
+                typer.echo(err.format_message())
+            else:
+                msg = " ".join(err.format_message().split())
+                typer.echo(f"error: {msg}", err=True)
+            sys.exit(err.exit_code)
+        except Abort:
+            typer.echo("error: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, cls=_OneLineErrors,
                   help="simgap: the gap between a simulator and the real system.")
 
 

@@ -242,3 +242,9 @@ def test_bicycle_steering_sign_and_scale(tmp_path):
                  model="bicycle")
     diagnose_bad(tmp_path, d.assign(delta_f=d.delta_f * 1e-3), "'delta_f'", "too small",
                  "unit factor", model="bicycle")
+
+
+def test_usage_errors_are_one_line(tmp_path):
+    one_line(["record", str(tmp_path / "a.csv"), "--duration", "abc"], "--duration")
+    one_line(["diagnose"], "Missing argument")
+    one_line(["diagnose", "x.csv", "--model", "bicycle", "--bogus"], "--bogus")
