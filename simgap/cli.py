@@ -13,15 +13,44 @@ the numerical modules are imported.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import typer
+from typer.core import TyperGroup
+from typer.exceptions import Abort, TyperException
 
 from simgap._cli_paths import DEMO_OUT
 from simgap.diagnosis import commands as diagnosis_commands
 from simgap.evaluation import commands as evaluation_commands
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+
+class _OneLineErrors(TyperGroup):
+    """Usage errors (bad option value, missing argument) as one ``error:`` line, exit 2.
+
+    typer would draw a multi-line panel; simgap's contract is one line for every bad input.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
+             **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, False, **extra)
+        except TyperException as err:
+            if type(err).__name__ == "NoArgsIsHelpError":  # bare `simgap`: show the help
+                typer.echo(err.format_message())
+            else:
+                msg = " ".join(err.format_message().split())
+                typer.echo(f"error: {msg}", err=True)
+            sys.exit(err.exit_code)
+        except Abort:
+            typer.echo("error: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, cls=_OneLineErrors,
                   context_settings={"help_option_names": ["-h", "--help"]},
                   help="simgap: the gap between a simulator and the real system.")
 
@@ -49,8 +78,13 @@ def demo(out: Path = typer.Option(DEMO_OUT, "--out",
     if out.exists() and not out.is_dir():
         diagnosis_commands._fail(f"{out}: exists and is not a folder")
     from simgap.demo import run_demo
+    from simgap.errors import SimgapError
 
-    run_demo(out, seed=seed)
+    try:
+        run_demo(out, seed=seed)
+    except SimgapError as err:  # e.g. --out holds the user's files (simgap.outputs)
+        typer.echo(f"error: {str(err).splitlines()[0]}", err=True)
+        raise typer.Exit(2) from None
 
 
 diagnosis_commands.register(app)

@@ -35,6 +35,7 @@ from simgap.envs.scenarios import (
     slalom,
     step_steer,
 )
+from simgap.outputs import output_folder
 
 #: Seconds of simulated manipulator motion per scenario (two back-and-forth thesis cycles).
 MANIPULATOR_SECONDS = 8.0
@@ -227,7 +228,8 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
     """Roll out both envs, diagnose a recording, reproduce the thesis; write PNGs and index.
 
     Args:
-        out: output folder (created if missing).
+        out: output folder: new, empty, or a previous simgap output (which is replaced);
+            written transactionally by :func:`simgap.outputs.output_folder`.
         seed: seed of the env resets, the random-waypoint reference and the recording.
         duration_scale: fraction of each scenario (and of the diagnosed recording) to
             simulate (1 = full; tests use less).
@@ -239,10 +241,21 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
     Returns:
         Paths of the written PNG files (all shown in ``out/index.html``).
     """
-    out = Path(out)
     if not 0 < duration_scale <= 1:
         raise ValueError(f"duration_scale must be in (0, 1], got {duration_scale!r}")
-    out.mkdir(parents=True, exist_ok=True)
+    with output_folder(out, kind="demo") as tmp:
+        written = _demo(tmp, seed, duration_scale, reproduce, diagnosis)
+    final = [Path(out) / p.relative_to(tmp) for p in written]
+    for p in final:
+        log(f"wrote {p}")
+    log(f"wrote {Path(out) / 'index.html'} (open it in a browser: every figure with one line "
+        "of explanation)")
+    return final
+
+
+def _demo(out: Path, seed: int, duration_scale: float, reproduce: bool,
+          diagnosis: bool) -> list[Path]:
+    """The demo's work, written into ``out`` (the temporary folder of :func:`run_demo`)."""
     written: list[Path] = []
     frames: list[tuple[str, np.ndarray]] = []
 
@@ -294,9 +307,5 @@ def run_demo(out: Path, seed: int = 0, *, duration_scale: float = 1.0,
         rep = run_reproduce(out / "reproduce", case="all", quick=True, seed=seed, log=log,
                             progress=progress_lines())
         written.extend(Path(p) for p in rep["files"] if str(p).endswith(".png"))
-        log(f"wrote {out / 'reproduce' / 'report.md'}")
-    index = write_index(out, written)
-    for p in written:
-        log(f"wrote {p}")
-    log(f"wrote {index} (open it in a browser: every figure with one line of explanation)")
+    write_index(out, written)
     return written

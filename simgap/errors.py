@@ -60,9 +60,16 @@ class EvaluationError(SimgapError):
     """Bad input to the evaluation (freeze times, cases, options, recordings)."""
 
 
+class OutputError(SimgapError):
+    """An output path cannot be written without touching something of the user's."""
+
+
+class LimitError(SimgapError):
+    """A size, duration, memory or file-shape limit would be exceeded (checked before work)."""
+
+
 __all__ = [
     "ColumnMapError", "CustomModelError", "DiagnosisError", "EnvError", "EvaluationError",
-    "GeneratorError",
-    "IdentifierDivergedError", "IdentifierError", "ModelError", "ModelFileError",
-    "RecordingError", "SimgapError",
+    "GeneratorError", "IdentifierDivergedError", "IdentifierError", "LimitError", "ModelError",
+    "ModelFileError", "OutputError", "RecordingError", "SimgapError",
 ]

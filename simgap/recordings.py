@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from simgap.errors import ColumnMapError, RecordingError
+from simgap.limits import check_recording_file
 from simgap.schema import RecordingSchema
 
 #: Fewest samples any diagnosis can say something about.
@@ -93,10 +94,7 @@ def _row_label(path: str, i: int) -> str:
 
 def _read_table(path: Path) -> pd.DataFrame:
     label = str(path)
-    if not path.exists():
-        raise _fail(label, "file does not exist")
-    if path.is_dir():
-        raise _fail(label, "is a folder, expected a .csv or .parquet file")
+    check_recording_file(path)  # exists, regular file, header length, memory (simgap.limits)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
         raise _fail(label, f"unknown file type {path.suffix!r}; use .csv or .parquet")
@@ -104,9 +102,11 @@ def _read_table(path: Path) -> pd.DataFrame:
         if suffix == ".parquet":
             return pd.read_parquet(path)
         # Read as text so that non-numeric cells can be located exactly afterwards.
+        # Undecodable bytes become U+FFFD: a latin-1 byte in an ignored column never rejects
+        # the file, and one in a used column is reported as a non-numeric cell.
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
-                            encoding="utf-8")
-        with open(path, newline="", encoding="utf-8") as fh:
+                            encoding="utf-8", encoding_errors="replace")
+        with open(path, newline="", encoding="utf-8", errors="replace") as fh:
             header = [h.strip() for h in next(csv.reader(fh), [])]
         if len(header) == frame.shape[1] and len(set(header)) == len(header):
             return frame
@@ -148,8 +148,8 @@ def _numeric_column(label: str, name: str, values: pd.Series) -> np.ndarray:
     finite = np.isfinite(arr)
     if not finite.all():
         i = int(np.argmin(finite))
-        raise _fail(label, f"column {name!r} {_row_label(label, i)}: value {arr[i]!r} is not "
-                           "finite (NaN or inf)")
+        raise _fail(label, f"column {name!r} {_row_label(label, i)}: value {float(arr[i])!r} "
+                           "is not finite (NaN or inf)")
     return arr
 
 
@@ -185,8 +185,9 @@ def validate_columns(label: str, frame: pd.DataFrame, required: Sequence[str],
     dt = np.diff(out["t"])
     if np.any(dt <= 0):
         i = int(np.argmax(dt <= 0)) + 1
-        raise _fail(label, f"column 't' {_row_label(label, i)}: time {out['t'][i]!r} s is not "
-                           f"after the previous {out['t'][i - 1]!r} s (must strictly increase)")
+        t_i, t_prev = float(out["t"][i]), float(out["t"][i - 1])
+        raise _fail(label, f"column 't' {_row_label(label, i)}: time {t_i!r} s is not "
+                           f"after the previous {t_prev!r} s (must strictly increase)")
     return out
 
 

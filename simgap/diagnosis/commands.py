@@ -1,18 +1,20 @@
 """CLI commands of the diagnosis: ``simgap diagnose`` and ``simgap record``.
 
 Registered on the main typer app by :mod:`simgap.cli`. Bad input ends with one line on
-stderr (``error: <file>: <what>``) and exit status 2; nothing is left half-written (the
-report folder and the recording are written to temporary names and moved into place).
+stderr (``error: <file>: <what>``) and exit status 2; nothing is left half-written and
+nothing of the user's is replaced (:mod:`simgap.outputs`: the output target is checked
+before any work, written under temporary names and moved into place when complete).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import typer
+
+from simgap.errors import SimgapError
+from simgap.outputs import check_file_target, check_folder_target, output_files
 
 EXIT_BAD_INPUT = 2
 
@@ -90,18 +92,24 @@ def register(app: typer.Typer) -> None:
             _fail(f"{model.rsplit(':', 1)[0]}: model file not found (--model path.py:NAME)")
         if model.lower().endswith(".xml") and not Path(model).is_file():
             _fail(f"{model}: MJCF file not found (--model robot.xml)")
-        if out is not None and out.exists() and not out.is_dir():
-            _fail(f"{out}: exists and is not a folder")
         from simgap._log import stage
         from simgap.diagnosis.pipeline import default_out_dir
+
+        target = out or default_out_dir(recording)
+        model_file = (model.rsplit(":", 1)[0] if ":" in model
+                      else model if model.lower().endswith(".xml") else None)
+        inputs = (recording, params, columns, model_file)
+        try:
+            check_folder_target(target, inputs=inputs)
+        except SimgapError as err:
+            _fail(str(err))
         from simgap.diagnosis.pipeline import diagnose as run
         from simgap.diagnosis.report import summary_lines, write_report
-        from simgap.errors import SimgapError
 
         overrides = _load_params(params)
-        if overrides and (":" in model or model.lower().endswith(".xml")):
+        if overrides and model_file is not None:
             _fail(f"{params}: --params applies to built-in models only; set the "
-                  f"parameters in {model.rsplit(':', 1)[0]}")
+                  f"parameters in {model_file}")
         try:
             with stage(f"diagnosing {recording.name} against {model}"):
                 if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
@@ -110,12 +118,10 @@ def register(app: typer.Typer) -> None:
                     report = diagnose_mjcf(model, recording, columns=columns)
                 else:
                     report = run(recording, model, overrides, columns=columns)
+            with stage(f"writing the report to {target}"):
+                write_report(report, target, figures=figures, inputs=inputs)
         except SimgapError as err:
             _fail(str(err))
-        target = out or default_out_dir(recording)
-        try:
-            with stage(f"writing the report to {target}"):
-                write_report(report, target, figures=figures)
         except OSError as err:
             _fail(f"{target}: cannot write the report ({err.strerror or err})")
         for line in summary_lines(report.data):
@@ -146,7 +152,7 @@ def register(app: typer.Typer) -> None:
                                           "defaults) and exit."),
     ) -> None:
         """Generate a recording with concealed effects (closed loop or scripted steering)."""
-        from simgap.errors import GeneratorError, RecordingError
+        from simgap.errors import GeneratorError
 
         if list_effects:
             from simgap.diagnosis.catalog import effect_table_lines
@@ -168,14 +174,17 @@ def register(app: typer.Typer) -> None:
             injectable_effects(model)
         except GeneratorError as err:
             _fail(str(err))
+        targets = [out, out.with_name(out.name + ".truth.json")] if truth else [out]
         kwargs: dict = {"seed": seed}
         if duration is not None:
             kwargs["duration"] = duration
         if model == "bicycle":
             kwargs.update(program=program, vx=vx)
         try:
+            for t in targets:
+                check_file_target(t)
             effects = [parse_effect(e) for e in effect]
-        except GeneratorError as err:
+        except SimgapError as err:
             _fail(str(err))
         from simgap._log import stage
         from simgap.diagnosis.generate import generate
@@ -184,13 +193,10 @@ def register(app: typer.Typer) -> None:
         try:
             with stage(f"recording {out.name} ({model}, {len(effects)} hidden effect(s))"):
                 rec = generate(model, effects, name=out.name, **kwargs)
-                write_recording(out, rec.columns)
-        except (GeneratorError, RecordingError, ValueError) as err:
+                with output_files(targets) as tmps:
+                    write_recording(tmps[0], rec.columns)
+                    if truth:
+                        tmps[1].write_text(json.dumps(rec.meta, indent=2), encoding="utf-8")
+        except (SimgapError, ValueError) as err:
             _fail(str(err))
-        if truth:
-            side = out.with_name(out.name + ".truth.json")
-            fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{side.name}.")
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(rec.meta, fh, indent=2)
-            os.replace(tmp, side)
         typer.echo(f"wrote {out} ({rec.n} samples, {len(effects)} hidden effect(s))")

@@ -40,11 +40,12 @@ import numpy as np
 from numba import njit
 
 from simgap.errors import GeneratorError
+from simgap.limits import check_samples
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.effects import EffectInstance, PlantSchema
 from simgap.models.integrators import rk4
-from simgap.recordings import Recording
+from simgap.recordings import MIN_SAMPLES, Recording
 
 #: Injectable manipulator effects: name -> (per joint?, parameter names), from the vocabulary.
 MANIPULATOR_EFFECTS: dict[str, tuple[bool, tuple[str, ...]]] = {
@@ -57,6 +58,9 @@ BICYCLE_EFFECTS: dict[str, tuple[bool, tuple[str, ...]]] = {
     for e in bic.PLANT_SCHEMA.vocabulary}
 JOINTS = man.JOINTS
 AXLES = bic.AXLES
+#: float64 arrays per sample a generator and the CSV writer hold at once (memory estimate
+#: checked by :func:`simgap.limits.check_samples` before allocating).
+GENERATOR_ARRAYS = 64
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -186,6 +190,8 @@ def generate_manipulator(effects: Sequence[InjectedEffect] = (), *, duration: fl
     """
     if not (duration > 0 and rate > 0):
         raise GeneratorError("duration and rate must be positive")
+    check_samples("duration", duration, rate, columns=GENERATOR_ARRAYS,  # before allocating
+                  min_samples=MIN_SAMPLES)
     ref_seq, noise_seq = np.random.SeedSequence(seed).spawn(2)
     rng = np.random.default_rng(noise_seq)
     p = params or man.ManipulatorParams()
@@ -301,6 +307,8 @@ def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float 
     """
     if not (duration > 0 and rate > 0):
         raise GeneratorError("duration and rate must be positive")
+    check_samples("duration", duration, rate, columns=GENERATOR_ARRAYS,  # before allocating
+                  min_samples=MIN_SAMPLES)
     rng = np.random.default_rng(seed)
     p = params or bic.BicycleParams()
     theta = bicycle_plant(effects, vx, p)

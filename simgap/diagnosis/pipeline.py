@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from simgap import plausibility
 from simgap.diagnosis import locate
 from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, AugmentedMechanical
 from simgap.diagnosis.compare import Comparison, compare
@@ -115,6 +116,7 @@ def _apply_overrides(cls: type, overrides: Mapping[str, Any] | None, model: str)
                                  f"known: {', '.join(sorted(names))}")
         if not isinstance(v, (int, float, list, tuple)) or isinstance(v, bool):
             raise DiagnosisError(f"parameter {k!r} must be a number, got {v!r}")
+    plausibility.check_params(cls, overrides, model)
     try:
         return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in overrides.items()})
     except (TypeError, ValueError) as err:
@@ -332,6 +334,7 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
     if duration is not None:
         rec = first_seconds(rec, duration)
     system = _adapter(obj, set(rec.columns))
+    plausibility.check_recording(rec, system)  # units, magnitudes, motion (one line)
     report = _run(rec, system, horizon, train_fraction)
     processing = report.data["processing"]
     if spec is not None:
@@ -351,6 +354,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         res = system.prepare(rec)
     except ValueError as err:
         raise RecordingError(str(err).splitlines()[0]) from None
+    plausibility.check_prepared(rec, system)
     stats = locate.channel_stats(system.channels, res.residual, res.noise_rms)
     try:
         fitter = Fitter(system, res.residual, res.noise_rms, train_fraction,

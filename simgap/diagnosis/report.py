@@ -22,8 +22,7 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +33,7 @@ from simgap._plotting import legend_outside
 from simgap.diagnosis.augmented import save_model
 from simgap.diagnosis.locate import binned
 from simgap.diagnosis.pipeline import fmt
+from simgap.outputs import output_folder
 
 MAX_POINTS = 4000
 #: Figure width (in) of recordings up to :data:`WIDE_AFTER_S` long; longer ones grow to
@@ -277,19 +277,16 @@ def markdown(data: dict[str, Any]) -> str:
     return "\n".join(out)
 
 
-def write_report(report, out_dir: str | os.PathLike, figures: bool = True) -> Path:
+def write_report(report, out_dir: str | os.PathLike, figures: bool = True,
+                 inputs: Sequence[str | os.PathLike] = ()) -> Path:
     """Write report.json, report.md, figures and augmented_model.json into ``out_dir``.
 
-    Everything is written to a temporary sibling folder first and moved into place at the
-    end (an existing ``out_dir`` is replaced only then).
+    Transactional (:func:`simgap.outputs.output_folder`): everything is written to a fresh
+    temporary sibling folder and moved into place at the end; an existing ``out_dir`` is
+    replaced only if it is empty or a previous simgap output, and a target that is or holds
+    one of ``inputs`` is refused (:class:`~simgap.errors.OutputError`).
     """
-    out = Path(out_dir)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o777 & ~mask)
-    try:
+    with output_folder(out_dir, kind="diagnose", inputs=inputs) as tmp:
         (tmp / "report.json").write_text(json.dumps(finite_json(report.data), indent=2,
                                                     allow_nan=False),
                                          encoding="utf-8")
@@ -301,16 +298,4 @@ def write_report(report, out_dir: str | os.PathLike, figures: bool = True) -> Pa
             _fig_residual_time(report, tmp / "residual_time.png")
             _fig_residual_vs(report, tmp / "residual_vs_variable.png")
             _fig_simulation(report, tmp / "simulation.png")
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            if old.exists():
-                shutil.rmtree(old)
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out
+    return Path(out_dir)

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import numbers
 
+import gymnasium as gym
 import numpy as np
 from numba import njit
+
+from simgap.errors import EnvError
 
 
 @njit(cache=True)
@@ -19,11 +22,54 @@ def _finite_clip(a, lo, hi, out):  # pragma: no cover - compiled
     return True
 
 
-def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:
-    """Validate an action and clip it into the box [low, high].
+class StepBeforeResetError(EnvError, gym.error.ResetNeeded):
+    """``step`` was called before ``reset`` (also a gymnasium ``ResetNeeded``)."""
+
+
+def check_reset(done: bool, env: str) -> None:
+    """Raise :class:`StepBeforeResetError` unless ``reset`` has been called."""
+    if not done:
+        raise StepBeforeResetError(f"{env}: call reset() before step()")
+
+
+def check_action(action: object, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """The one action check of every simgap env: real floating dtype, exact shape, finite.
+
+    Nothing is reshaped or cast silently: a (1, 2) array for a (2,) action, an integer,
+    complex, boolean or string action, or a NaN/inf entry is an error, so the env state
+    is left untouched.
 
     Args:
-        action: array-like of shape ``low.shape``.
+        action: the action passed to ``step``.
+        shape: the action space's shape.
+        what: description used in error messages, e.g. ``"joint torques (N·m)"``.
+
+    Returns:
+        A float64 copy of the action.
+
+    Raises:
+        EnvError: one line naming the shape/dtype/value that is wrong.
+    """
+    try:
+        a = np.asarray(action)
+    except Exception as err:  # ragged lists and the like
+        raise EnvError(f"action {action!r:.60}: not an array of {what} ({err})") from None
+    if a.dtype.kind != "f":
+        raise EnvError(f"action {action!r:.60} has dtype {a.dtype}; expected real floating-"
+                       f"point {what} of shape {shape} (e.g. numpy float32/float64)")
+    if a.shape != shape:
+        raise EnvError(f"action must have shape {shape} ({what}), got shape {a.shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise EnvError(f"action contains NaN or inf: {a!r} ({what}); the step was not taken")
+    return a
+
+
+def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:
+    """Validate an action (:func:`check_action`) and clip it into the box [low, high].
+
+    Args:
+        action: array of shape ``low.shape``, real floating dtype.
         low: lower bounds (float64).
         high: upper bounds (float64).
         what: description used in error messages, e.g. ``"joint torques (N·m)"``.
@@ -32,16 +78,11 @@ def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str)
         A new float64 array, clipped.
 
     Raises:
-        ValueError: wrong shape, or a NaN/inf entry (the env state is left untouched).
+        EnvError: wrong shape or dtype, or a NaN/inf entry (the env state is left untouched).
     """
-    a = np.asarray(action, dtype=np.float64)
-    if a.shape != low.shape:
-        a = a.reshape(-1) if a.size == low.size else a
-        if a.shape != low.shape:
-            raise ValueError(f"action must be {low.shape[0]} {what}, got shape {np.shape(action)}")
+    a = check_action(action, low.shape, what)
     out = np.empty_like(low)
-    if not _finite_clip(a, low, high, out):
-        raise ValueError(f"action contains NaN or inf: {a!r} ({what}); the step was not taken")
+    _finite_clip(a, low, high, out)
     return out
 
 

@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from simgap.envs._common import check_reset, prepare_action
 from simgap.errors import EnvError
 from simgap.models.effects import Plant, PlantSchema
 
@@ -78,6 +79,17 @@ class PlantEnv(gym.Env):
         self._k = 0
         self._last_u = np.zeros(low.shape[0])
         self._renderer: Any = None
+        self._was_reset = False
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        """Seed ``np_random`` (gymnasium) and allow ``step``; subclasses extend it."""
+        super().reset(seed=seed, options=options)
+        self._was_reset = True
+
+    def _action(self, action: object, what: str) -> np.ndarray:
+        """The validated, clipped action of a ``step`` (one :class:`EnvError` line if bad)."""
+        check_reset(self._was_reset, type(self).__name__)
+        return prepare_action(action, self._low, self._high, what)
 
     @property
     def t(self) -> float:

@@ -20,7 +20,6 @@ from simgap.envs._common import (
     check_count,
     check_pair,
     check_render_mode,
-    prepare_action,
     state_option,
 )
 from simgap.envs.base import PlantEnv
@@ -193,7 +192,7 @@ class BicycleTireEnv(PlantEnv):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply road-wheel angles (rad) for dt seconds."""
-        u = prepare_action(action, self._low, self._high, "steering angles (rad)")
+        u = self._action(action, "steering angles (rad)")
         s = self._s
         g = true_residual_vs(s, u, self._theta, self._theta_nom)
         s_new = plant_step(s, u, self._theta, self.dt, self.n_substeps)

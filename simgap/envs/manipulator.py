@@ -20,7 +20,6 @@ from simgap.envs._common import (
     check_count,
     check_pair,
     check_render_mode,
-    prepare_action,
     state_option,
 )
 from simgap.envs.base import PlantEnv
@@ -168,7 +167,7 @@ class ManipulatorFrictionEnv(PlantEnv):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply joint torques (N·m) for dt seconds."""
-        u = prepare_action(action, self._low, self._high, "joint torques (N·m)")
+        u = self._action(action, "joint torques (N·m)")
         s = self._s
         theta = self._theta
         g = true_residual(s, u, theta, self._la_nom)

@@ -31,4 +31,5 @@ def register_envs() -> None:
     """Register every system env id that is not registered yet (no warning on repeats)."""
     for env_id, (entry_point, max_steps) in env_specs().items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_steps)
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_steps,
+                         order_enforce=False)  # the envs raise EnvError before reset

@@ -45,7 +45,7 @@ def register(app: typer.Typer) -> None:
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
         from simgap._log import line, log
-        from simgap.evaluation.errors import EvaluationError
+        from simgap.errors import SimgapError
         from simgap.evaluation.pipeline import reproduce as run
 
         console = Console(stderr=True)
@@ -63,7 +63,7 @@ def register(app: typer.Typer) -> None:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
                           progress=progress, log=lambda m: bar.console.print(line(m), markup=False,
                                                                 highlight=False))
-            except EvaluationError as exc:
+            except SimgapError as exc:  # EvaluationError, OutputError
                 bar.stop()
                 console.print(f"error: {exc}", style="red", markup=False)
                 raise typer.Exit(2) from None

@@ -1,15 +1,13 @@
 """``simgap reproduce``: run the thesis cases and timing, write results.json, report.md, PNGs.
 
-Outputs are first written into a temporary folder beside ``out`` and then moved into ``out``
-file by file, so an interrupted or failed run leaves no half-written report.
+Outputs are first written into a temporary folder beside ``out`` and moved into place only
+when complete (:func:`simgap.outputs.output_folder`): an interrupted or failed run leaves no
+half-written report, and an ``out`` holding anything but a previous simgap output is refused.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
-import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,6 +16,7 @@ from simgap.evaluation.cases import ABLATION_CASES, THESIS_CASES, get_case
 from simgap.evaluation.errors import EvaluationError
 from simgap.evaluation.report import build_results, render_markdown, to_json
 from simgap.evaluation.runner import CaseResult, record_case, run_case
+from simgap.outputs import output_folder
 
 #: Values accepted by ``--case``.
 CASE_CHOICES: tuple[str, ...] = ("1", "2-1", "2-2", "timing", "all")
@@ -54,7 +53,7 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
     """Run cases and/or timing and write ``results.json``, ``report.md`` and PNGs to ``out``.
 
     Args:
-        out: output folder (created; existing files of the same names are replaced).
+        out: output folder (new, empty, or a previous simgap output, which is replaced).
         case: ``"1"``, ``"2-1"``, ``"2-2"``, ``"timing"`` or ``"all"`` (the three cases, the
             relaxation-off ablations and timing).
         quick: the short CI variant (Case 1 over 20 s, freeze 12 s / 20 s; timing 3 runs of
@@ -69,6 +68,7 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
 
     Raises:
         EvaluationError: bad arguments (nothing is written).
+        OutputError: ``out`` is a file or a folder with other content (nothing is written).
     """
     from matplotlib.figure import Figure  # noqa: F401 - fail early if matplotlib is missing
 
@@ -81,13 +81,8 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
     if timing_runs is not None and (isinstance(timing_runs, bool)
                                     or not isinstance(timing_runs, int) or timing_runs < 1):
         raise EvaluationError(f"timing runs must be a positive integer, got {timing_runs!r}")
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise EvaluationError(f"--out {out} exists and is not a folder")
     say = log or (lambda _msg: None)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".simgap-reproduce-", dir=out.parent))
-    try:
+    with output_folder(out, kind="reproduce") as tmp:
         case_results: list[CaseResult] = []
         figures: dict[str, list[str]] = {}
         case1_tr = None
@@ -127,13 +122,6 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
         results = build_results(case_results, timing, meta)
         (tmp / "results.json").write_text(to_json(results), encoding="utf-8")
         (tmp / "report.md").write_text(render_markdown(results, figures), encoding="utf-8")
-        out.mkdir(parents=True, exist_ok=True)
-        written = []
-        for f in sorted(tmp.iterdir()):
-            dst = out / f.name
-            os.replace(f, dst)
-            written.append(dst)
-        results["files"] = [str(p) for p in written]
-        return results
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        written = [Path(out) / f.name for f in sorted(tmp.iterdir())]
+    results["files"] = [str(p) for p in written]
+    return results

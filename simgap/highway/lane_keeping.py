@@ -33,6 +33,7 @@ import numpy as np
 from highway_env import utils
 from highway_env.envs.lane_keeping_env import LaneKeepingEnv
 
+from simgap.envs._common import check_action, check_reset
 from simgap.highway.vehicle import PacejkaBicycleVehicle
 from simgap.models.bicycle import BicycleNominal, BicycleParams
 from simgap.models.tires import MagicFormulaTire
@@ -90,6 +91,7 @@ class PacejkaLaneKeepingEnv(LaneKeepingEnv):
             raise ValueError(f"config['speed'] must be a speed above 1 m/s, got {speed!r}")
         self.nominal_model: HighwayBicycleNominal | None = None
         super().__init__(cfg)  # LaneKeepingEnv.__init__ takes no render_mode
+        self._was_reset = False  # highway-env resets inside __init__; the user has not
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or "
                              f"None, got {render_mode!r}")
@@ -127,6 +129,7 @@ class PacejkaLaneKeepingEnv(LaneKeepingEnv):
               ) -> tuple[Any, dict]:
         """highway-env reset, plus the residual at rest and the nominal model refreshed."""
         obs, info = super().reset(seed=seed, options=options)
+        self._was_reset = True
         self._build_nominal()
         self.vehicle.act({"steering": 0.0, "acceleration": 0.0})
         g = self._true_residual()
@@ -139,7 +142,14 @@ class PacejkaLaneKeepingEnv(LaneKeepingEnv):
                 float(self.config["simulation_frequency"])}
 
     def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict]:
-        """Act, record the true residual, simulate, then observe (post-step state)."""
+        """Act, record the true residual, simulate, then observe (post-step state).
+
+        Raises:
+            EnvError: ``step`` before ``reset``, or an action that is not a finite float
+                array of the action space's shape (the env does not advance).
+        """
+        check_reset(getattr(self, "_was_reset", False), "PacejkaLaneKeeping-v0")
+        action = check_action(action, self.action_space.shape, "steering command in [-1, 1]")
         if self.lanes and not self.lane.on_lane(self.vehicle.position):
             self.lane = self.lanes.pop(0)
         self.store_data()

@@ -177,7 +177,7 @@ class BatchIdentifier(IdentifierBase):
             config = IdentifierConfig.from_dict(meta["config"])
             ident = cls(meta["kind"], meta["n_envs"], meta["n_states"], meta["n_inputs"],
                         meta["dt"], config=config, seed=meta["seed"])
-        except KeyError as exc:
-            raise IdentifierError(f"{path}: meta lacks {exc}") from None
-        ident._load_arrays(meta, arrays, str(path))
+            ident._load_arrays(meta, arrays, str(path))
+        except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            raise io.load_guard(path, exc) from None
         return ident

@@ -349,6 +349,9 @@ class IdentifierBase:
             if a.shape != dst.shape:
                 raise IdentifierError(f"{source}: array {key!r} has shape {a.shape}, expected "
                                       f"{dst.shape} for this identifier")
+            if a.dtype.kind not in ("iu" if key == "counters" else "fiu"):
+                raise IdentifierError(f"{source}: array {key!r} has dtype {a.dtype}, expected "
+                                      f"{dst.dtype}")
             if key != "counters" and not np.all(np.isfinite(a)):
                 raise IdentifierError(f"{source}: array {key!r} contains non-finite values")
         hp = np.asarray(arrays["state"])[:, :K.HP_SIZE]

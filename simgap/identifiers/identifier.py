@@ -215,10 +215,8 @@ def load_identifier(path: str | os.PathLike[str]) -> Identifier:
             raise IdentifierError("file holds a BatchIdentifier; use BatchIdentifier.load")
         ident = Identifier(meta["kind"], meta["n_states"], meta["n_inputs"], meta["dt"],
                            config=config, seed=meta["seed"])
-    except KeyError as exc:
-        raise IdentifierError(f"{path}: meta lacks {exc}") from None
-    except IdentifierError as exc:
-        raise IdentifierError(f"{path}: {exc}") from None
-    ident._load_arrays(meta, arrays, str(path))
+        ident._load_arrays(meta, arrays, str(path))
+    except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+        raise io.load_guard(path, exc) from None
     return ident
 

@@ -62,4 +62,22 @@ def read_npz(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, np
     fmt = meta.get("format") if isinstance(meta, dict) else None
     if fmt != FORMAT:
         raise IdentifierError(f"{path}: format {fmt!r} is not {FORMAT!r}")
+    for name, arr in data.items():
+        if arr.dtype.kind not in "fiu":
+            raise IdentifierError(f"{path}: array {name!r} has dtype {arr.dtype}, expected "
+                                  "numbers (a corrupt or foreign file)")
     return meta, data
+
+
+def load_guard(path: str | os.PathLike[str], exc: Exception) -> IdentifierError:
+    """The one-line :class:`IdentifierError` for any failure while loading ``path``.
+
+    A corrupt ``meta`` (wrong types, bad sizes) makes constructors raise ``TypeError``,
+    ``ValueError`` or ``AttributeError``; they all end here, naming the file.
+    """
+    if isinstance(exc, KeyError):
+        return IdentifierError(f"{path}: meta lacks {exc}")
+    msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    if isinstance(exc, IdentifierError) and msg.startswith(str(path)):
+        return IdentifierError(msg)
+    return IdentifierError(f"{path}: corrupt identifier meta or arrays ({msg})")

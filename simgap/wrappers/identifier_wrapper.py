@@ -43,6 +43,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from simgap.envs._common import check_reset
 from simgap.errors import SimgapError
 from simgap.identifiers import Identifier, IdentifierConfig, IdentifierError, make_identifier
 from simgap.identifiers.config import check_kind, preset
@@ -242,8 +243,7 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step the env and the identifier (one transition)."""
-        if self._x is None:
-            raise gym.error.ResetNeeded("IdentifierWrapper: call reset() before step()")
+        check_reset(self._x is not None, "IdentifierWrapper")  # EnvError (and gym's ResetNeeded)
         obs, reward, terminated, truncated, info = self.env.step(action)
         model = self.nominal_model
         x = self._x

@@ -30,6 +30,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
+from simgap.envs._common import check_reset
 from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
 from simgap.identifiers.config import check_kind, preset
 from simgap.models.base import NominalModel
@@ -125,8 +126,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
 
     def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]:
         """Step all sub-envs, then all identifiers in one kernel call."""
-        if self._x is None:
-            raise gym.error.ResetNeeded("VectorIdentifierWrapper: call reset() before step()")
+        check_reset(self._x is not None, "VectorIdentifierWrapper")  # EnvError, ResetNeeded
         obs, rewards, terms, truncs, infos = self.env.step(actions)
         nn = self.num_envs
         space = self.env.single_action_space

@@ -9,6 +9,7 @@ from typer.testing import CliRunner
 from simgap.cli import app
 from simgap.evaluation.cases import METHODS, get_case
 from simgap.evaluation.runner import run_case
+from simgap.outputs import MARKER
 
 runner = CliRunner()
 
@@ -18,8 +19,8 @@ def test_reproduce_case_2_1_writes_report_json_and_figures(tmp_path):
     res = runner.invoke(app, ["reproduce", "--case", "2-1", "--quick", "--out", str(out)])
     assert res.exit_code == 0, res.output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["case2_1_consistency.png", "case2_1_online.png", "report.md",
-                     "results.json"]
+    assert names == [MARKER, "case2_1_consistency.png", "case2_1_online.png", "report.md",
+                     "results.json"]  # the marker lets a rerun replace this output
     assert all((out / n).stat().st_size > 10_000 for n in names if n.endswith(".png"))
     data = json.loads((out / "results.json").read_text())
     c = data["cases"]["2-1"]

@@ -1,0 +1,250 @@
+"""Issue 15 repros: tracebacks, hangs and silently-accepted garbage now end in one clear line.
+
+Every case starts from the issue's recording (``simgap record arm.csv --duration 6 --effect
+coulomb_friction:joint2:Fc=0.3 --seed 1``), changes one thing, and expects exit status 2
+with a single line naming the column/flag and the likely cause; hangs run under a timeout.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from simgap.cli import app
+from simgap.errors import EnvError, IdentifierError, RecordingError
+from tests.fuzz import time_limit
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory) -> pd.DataFrame:
+    d = tmp_path_factory.mktemp("arm")
+    res = runner.invoke(app, ["record", str(d / "arm.csv"), "--duration", "6", "--effect",
+                              "coulomb_friction:joint2:Fc=0.3", "--seed", "1"])
+    assert res.exit_code == 0, res.output
+    return pd.read_csv(d / "arm.csv")
+
+
+def one_line(args, *words, seconds: float = 60):
+    with time_limit(seconds):
+        res = runner.invoke(app, args)
+    assert res.exit_code == 2, (res.output, res.exception)
+    lines = [ln for ln in res.output.strip().splitlines() if ln]
+    assert len(lines) == 1, res.output
+    for w in words:
+        assert w in lines[0], lines[0]
+    return lines[0]
+
+
+def diagnose_bad(tmp_path, frame: pd.DataFrame, *words, model="manipulator2dof"):
+    p = tmp_path / "bad.csv"
+    frame.to_csv(p, index=False)
+    line = one_line(["diagnose", str(p), "--model", model, "--out", str(tmp_path / "r"),
+                     "--no-figures"], *words)
+    assert not (tmp_path / "r").exists()
+    return line
+
+
+# -- tracebacks ------------------------------------------------------------------------
+@pytest.mark.parametrize("col", ["dq1", "tau2", "q2"])
+def test_single_1e300_cell(arm, tmp_path, col):
+    d = arm.copy()
+    d.loc[100, col] = 1e300
+    diagnose_bad(tmp_path, d, repr(col), "row 101", "beyond any physical value")
+
+
+def test_single_1e300_steering_cell(tmp_path):
+    from simgap.diagnosis.generate import generate
+
+    d = generate("bicycle", [], duration=6, seed=0).to_frame()
+    d.loc[50, "delta_f"] = 1e300
+    diagnose_bad(tmp_path, d, "'delta_f'", "row 51", model="bicycle")
+
+
+@pytest.mark.parametrize("duration", ["1e9", "inf", "nan", "-1"])
+def test_record_duration_limits(tmp_path, duration):
+    one_line(["record", str(tmp_path / "a.csv"), "--duration", duration], "duration",
+             seconds=20)
+    assert list(tmp_path.iterdir()) == []
+
+
+# -- hangs -----------------------------------------------------------------------------
+def test_time_column_scaled_by_1e_minus_7(arm, tmp_path):
+    diagnose_bad(tmp_path, arm.assign(t=arm.t * 1e-7), "'t'", "sample period")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+def test_named_pipe_with_no_writer(tmp_path):
+    os.mkfifo(tmp_path / "pipe.csv")
+    one_line(["diagnose", str(tmp_path / "pipe.csv"), "--model", "manipulator2dof", "--out",
+              str(tmp_path / "r")], "named pipe", seconds=20)
+
+
+def test_5mb_without_newline(tmp_path):
+    (tmp_path / "big.csv").write_text("a," * 2_500_000)
+    one_line(["diagnose", str(tmp_path / "big.csv"), "--model", "manipulator2dof", "--out",
+              str(tmp_path / "r")], "no line break", seconds=20)
+
+
+# -- accepted silently and wrong -------------------------------------------------------
+@pytest.mark.parametrize("factor, unit", [(1e3, "milliseconds"), (1e6, "microseconds")])
+def test_time_in_ms_or_us(arm, tmp_path, factor, unit):
+    diagnose_bad(tmp_path, arm.assign(t=arm.t * factor), "'t'", unit)
+
+
+def test_angles_in_degrees(arm, tmp_path):
+    d = arm.assign(q1=np.degrees(arm.q1), q2=np.degrees(arm.q2))
+    diagnose_bad(tmp_path, d, "degrees")
+
+
+def test_angles_and_speeds_in_degrees(arm, tmp_path):
+    d = arm.assign(**{c: np.degrees(arm[c]) for c in ("q1", "q2", "dq1", "dq2")})
+    diagnose_bad(tmp_path, d, "degrees")
+
+
+def test_torque_times_1000(arm, tmp_path):
+    diagnose_bad(tmp_path, arm.assign(tau1=arm.tau1 * 1000), "'tau1'", "×1000")
+
+
+def test_torque_flipped_sign(arm, tmp_path):
+    diagnose_bad(tmp_path, arm.assign(tau1=-arm.tau1), "'tau1'", "flipped sign")
+
+
+@pytest.mark.parametrize("scale, words", [(1e300, "beyond any physical"),
+                                          (1e-300, "implausibly small")])
+def test_column_scaled_1e_pm_300(arm, tmp_path, scale, words):
+    diagnose_bad(tmp_path, arm.assign(tau2=arm.tau2 * scale), "'tau2'", words)
+
+
+def test_all_constant_signals(arm, tmp_path):
+    d = arm.assign(**{c: 0.5 for c in arm.columns if c != "t"})
+    diagnose_bad(tmp_path, d, "no motion")
+
+
+def test_bicycle_units(tmp_path):
+    from simgap.diagnosis.generate import generate
+
+    d = generate("bicycle", [], duration=6, seed=0, vx=25.0).to_frame()
+    # km/h is named when the speed exceeds 70 m/s (252 km/h); slower km/h logs pass the range
+    diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6), "'vx'", "km/h", model="bicycle")
+    diagnose_bad(tmp_path, d.assign(delta_f=np.degrees(d.delta_f) * 20), "'delta_f'",
+                 "degrees", model="bicycle")
+
+
+def test_model_empty_and_params_out_of_range(arm, tmp_path):
+    p = tmp_path / "arm.csv"
+    arm.to_csv(p, index=False)
+    one_line(["diagnose", str(p), "--model", "", "--out", str(tmp_path / "r")], "model")
+    for model, body, words in (("manipulator2dof", '{"m": 1e300}', "m = 1e+300"),
+                               ("bicycle", '{"Iz": 1e-300}', "Iz = 1e-300")):
+        (tmp_path / "p.json").write_text(body)
+        one_line(["diagnose", str(p), "--model", model, "--params", str(tmp_path / "p.json"),
+                  "--out", str(tmp_path / "r")], words, "physical range")
+    assert not (tmp_path / "r").exists()
+
+
+def test_latin1_byte_in_ignored_column_is_accepted(arm, tmp_path):
+    d = arm.assign(comment="ok")
+    p = tmp_path / "latin.csv"
+    d.to_csv(p, index=False)
+    raw = p.read_bytes().replace(b",ok\n", b",caf\xe9\n", 5)
+    p.write_bytes(raw)
+    with time_limit(120):
+        res = runner.invoke(app, ["diagnose", str(p), "--model", "manipulator2dof", "--out",
+                                  str(tmp_path / "r"), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    # in a used column it is a non-numeric cell, named
+    p.write_bytes(raw.replace(b"\n0.", b"\n\xe90.", 1))
+    with pytest.raises(RecordingError, match="non-numeric"):
+        from simgap.recordings import read_recording
+
+        read_recording(p, ["q1", "tau1"])
+
+
+def test_real_like_recordings_pass(arm):
+    """The generated recording itself passes every plausibility check."""
+    from simgap import plausibility
+    from simgap.diagnosis.pipeline import make_system
+    from simgap.recordings import recording_from_arrays
+
+    system = make_system("manipulator2dof")
+    rec = recording_from_arrays("arm.csv", {c: arm[c].to_numpy() for c in arm.columns},
+                                system.columns.required)
+    plausibility.check_recording(rec, system)
+    system.prepare(rec)
+    plausibility.check_prepared(rec, system)
+
+
+# -- envs ------------------------------------------------------------------------------
+@pytest.mark.parametrize("env_id", ["simgap/PacejkaLaneKeeping-v0", "simgap/BicycleTire-v0",
+                                    "simgap/ManipulatorFriction-v0"])
+def test_env_actions_are_validated(env_id):
+    import gymnasium as gym
+
+    import simgap  # noqa: F401
+
+    if "Pacejka" in env_id:
+        pytest.importorskip("highway_env")
+    env = gym.make(env_id)
+    shape = env.action_space.shape
+    with pytest.raises(EnvError, match="reset"):
+        env.step(np.zeros(shape, dtype=np.float32))
+    env.reset(seed=0)
+    before = np.array(env.unwrapped.plant_state if hasattr(env.unwrapped, "plant_state")
+                      else env.unwrapped.vehicle.state, dtype=float).copy()
+    for bad in (0.1, "left", np.zeros((1, *shape)), np.zeros(shape, dtype=int),
+                np.zeros(shape, dtype=complex), np.full(shape, np.nan), [[0.0] * shape[0]]):
+        with pytest.raises(EnvError):
+            env.step(bad)
+    after = np.array(env.unwrapped.plant_state if hasattr(env.unwrapped, "plant_state")
+                     else env.unwrapped.vehicle.state, dtype=float)
+    np.testing.assert_array_equal(before, after)  # no bad action advanced the env
+    obs = env.step(np.zeros(shape, dtype=np.float32))[0]
+    state = obs["state"] if isinstance(obs, dict) else obs
+    assert np.all(np.isfinite(np.asarray(state, dtype=float)))
+
+
+# -- identifier files ------------------------------------------------------------------
+def test_identifier_file_corruption(tmp_path):
+    from simgap.identifiers import load_identifier, make_identifier
+
+    ident = make_identifier("minibatch", 4, 2, 0.002, seed=0)
+    good = ident.save(tmp_path / "id.npz")
+    with np.load(good, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = str(arrays["meta"])
+    for name in [k for k in arrays if k != "meta"]:
+        for bad in (np.array(["x"] * arrays[name].size), arrays[name].astype(complex),
+                    np.zeros(3)):
+            corrupt = dict(arrays, **{name: bad})
+            p = tmp_path / f"bad_{name}.npz"
+            np.savez(p, **corrupt)
+            with pytest.raises(IdentifierError, match=f"bad_{name}.npz.*{name}"):
+                load_identifier(p)
+    for bad_meta in (meta.replace('"n_states": 4', '"n_states": "four"'),
+                     meta.replace('"dt": 0.002', '"dt": "x"'), "[]", "{"):
+        p = tmp_path / "bad_meta.npz"
+        np.savez(p, **dict(arrays, meta=np.array(bad_meta)))
+        with pytest.raises(IdentifierError, match="bad_meta.npz"):
+            load_identifier(p)
+
+
+def test_bicycle_steering_sign_and_scale(tmp_path):
+    from simgap.diagnosis.generate import generate
+
+    d = generate("bicycle", [], duration=6, seed=0).to_frame()
+    diagnose_bad(tmp_path, d.assign(delta_f=-d.delta_f), "'r'", "flipped sign",
+                 model="bicycle")
+    diagnose_bad(tmp_path, d.assign(delta_f=d.delta_f * 1e-3), "'delta_f'", "too small",
+                 "unit factor", model="bicycle")
+
+
+def test_usage_errors_are_one_line(tmp_path):
+    one_line(["record", str(tmp_path / "a.csv"), "--duration", "abc"], "--duration")
+    one_line(["diagnose"], "Missing argument")
+    one_line(["diagnose", "x.csv", "--model", "bicycle", "--bogus"], "--bogus")
