@@ -85,9 +85,12 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Locate and name the physics a recording has and the nominal model lacks."""
         # checked before the numerical modules are imported (seconds), one line each
-        if not recording.is_file():
-            _fail(f"{recording}: file does not exist" if not recording.exists()
-                  else f"{recording}: not a file")
+        from simgap.limits import check_recording_file
+
+        try:  # missing, a folder, a FIFO or device, an overlong header: refused unopened
+            check_recording_file(recording)
+        except SimgapError as err:
+            _fail(str(err))
         if ":" in model and not Path(model.rsplit(":", 1)[0]).is_file():
             _fail(f"{model.rsplit(':', 1)[0]}: model file not found (--model path.py:NAME)")
         if model.lower().endswith(".xml") and not Path(model).is_file():
