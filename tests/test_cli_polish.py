@@ -101,3 +101,9 @@ def test_progress_lines_are_throttled() -> None:
     out = buf.getvalue().splitlines()
     assert len(out) == 2 and "1/100" in out[0] and "100/100 (100 %)" in out[1], out
     assert all(PLAIN.match(s) for s in out)
+
+
+def test_bad_reproduce_case_fails_before_heavy_imports() -> None:
+    res = _run_cli(["reproduce", "--case", "3", "--out", "/nonexistent/never-written"])
+    assert res.stdout.split() == ["2", "False", "False"], (res.stdout, res.stderr)
+    assert "--case must be one of" in res.stderr and len(res.stderr.strip().splitlines()) == 1

@@ -41,6 +41,12 @@ def register(app: typer.Typer) -> None:
         if seeds is not None:
             _sweep(out, seeds, case, quick, jobs, ray_address or ray)
             return
+        from simgap.evaluation.choices import CASE_CHOICES
+
+        if case not in CASE_CHOICES:  # before the seconds of numerical imports
+            typer.echo(f"error: --case must be one of {list(CASE_CHOICES)}, got {case!r}",
+                       err=True)
+            raise typer.Exit(2)
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 

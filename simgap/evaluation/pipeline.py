@@ -13,13 +13,12 @@ from pathlib import Path
 from typing import Any
 
 from simgap.evaluation.cases import ABLATION_CASES, THESIS_CASES, get_case
+from simgap.evaluation.choices import CASE_CHOICES
 from simgap.evaluation.errors import EvaluationError
 from simgap.evaluation.report import build_results, render_markdown, to_json
 from simgap.evaluation.runner import CaseResult, record_case, run_case
 from simgap.outputs import output_folder
 
-#: Values accepted by ``--case``.
-CASE_CHOICES: tuple[str, ...] = ("1", "2-1", "2-2", "timing", "all")
 #: Timing runs per method (full, quick) and the quick timing horizon (s).
 TIMING_RUNS = 100
 QUICK_TIMING_RUNS = 3
