@@ -3,7 +3,8 @@
 All three in one run, one after the other, with the machine's load average before each;
 each writes its own folder. Prints JSON (and writes it with --out).
 
-    .venv/bin/python benchmarks/bench_sweeps.py [--seeds 10] [--case 2-1] [--jobs 2]
+    .venv/bin/python benchmarks/bench_sweeps.py [--seeds 10] [--case 2-1] [--jobs 2] \
+        [--backends serial,process_pool,ray_local] [--out F.json]
 """
 
 from __future__ import annotations
@@ -26,11 +27,15 @@ def main() -> None:
     ap.add_argument("--case", default="2-1")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--backends", default="serial,process_pool,ray_local",
+                    help="Which of serial, process_pool, ray_local to run (serial always).")
     args = ap.parse_args()
+    wanted = {"serial", *args.backends.split(",")}
     seeds = list(range(args.seeds))
     backends = [("serial", 1, None), ("process_pool", args.jobs, None)]
     if importlib.util.find_spec("ray") is not None:
         backends.append(("ray_local", args.jobs, True))
+    backends = [b for b in backends if b[0] in wanted]
     res = {"seeds": args.seeds, "case": args.case, "quick": True, "jobs": args.jobs,
            "cpus": os.cpu_count(), "runs": {}}
     with tempfile.TemporaryDirectory() as tmp:
