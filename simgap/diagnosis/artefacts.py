@@ -35,11 +35,16 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.signal import lfilter
 
+from simgap.diagnosis.errormodel import MAD_TO_STD
 from simgap.errors import GeneratorError
 from simgap.recordings import Recording
 
-#: MAD → std for a Gaussian.
-MAD = 1.4826
+
+def _noted(rec: Recording, columns: dict[str, np.ndarray], what: str) -> Recording:
+    """A new recording with ``columns`` and ``what`` appended to ``meta["artefacts"]``."""
+    meta = dict(rec.meta)
+    meta["artefacts"] = [*rec.meta.get("artefacts", []), what]
+    return Recording(rec.name, columns, meta)
 
 
 def _with(rec: Recording, columns: Mapping[str, np.ndarray], what: str) -> Recording:
@@ -48,16 +53,11 @@ def _with(rec: Recording, columns: Mapping[str, np.ndarray], what: str) -> Recor
     n = {v.shape[0] for v in cols.values()}
     if len(n) != 1:
         raise GeneratorError(f"artefact {what}: columns of unequal length {sorted(n)}")
-    meta = dict(rec.meta)
-    meta["artefacts"] = [*rec.meta.get("artefacts", []), what]
-    return Recording(rec.name, cols, meta)
+    return _noted(rec, cols, what)
 
 
 def _rows(rec: Recording, keep: np.ndarray, what: str) -> Recording:
-    cols = {k: v[keep] for k, v in rec.columns.items()}
-    meta = dict(rec.meta)
-    meta["artefacts"] = [*rec.meta.get("artefacts", []), what]
-    return Recording(rec.name, cols, meta)
+    return _noted(rec, {k: v[keep] for k, v in rec.columns.items()}, what)
 
 
 def _need(rec: Recording, columns: Sequence[str], what: str) -> None:
@@ -108,7 +108,7 @@ def _haar_shrink(x: np.ndarray, levels: int) -> np.ndarray:
         a = (even + odd) / np.sqrt(2.0)
     universal = np.sqrt(2.0 * np.log(size))
     for d in reversed(details):
-        thr = universal * MAD * float(np.median(np.abs(d)))   # level-dependent (coloured noise)
+        thr = universal * MAD_TO_STD * float(np.median(np.abs(d)))  # per level: coloured noise
         d = np.sign(d) * np.maximum(np.abs(d) - thr, 0.0)
         out = np.empty(2 * a.size)
         out[0::2] = (a + d) / np.sqrt(2.0)

@@ -101,7 +101,7 @@ def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
         console.print(f"error: {exc}", style="red", markup=False)
         raise typer.Exit(2) from None
     for f in res["failed"]:
-        log(f"failed: case {f['args'][1]} seed {f['args'][3]}: {f['error']}")
+        log(f"failed: case {f['case']} seed {f['seed']}: {f['error']}")
     for path in res["files"]:
         log(f"wrote {path}")
     if res["failed"]:

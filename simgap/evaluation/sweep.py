@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -23,6 +21,7 @@ import numpy as np
 
 from simgap.evaluation.cases import ABLATION_CASES, THESIS_CASES
 from simgap.evaluation.errors import EvaluationError
+from simgap.outputs import output_folder
 from simgap.sweeps import JobResult, run_jobs
 
 #: Cases a sweep accepts (``all`` = the thesis cases and the ablations; timing is measured
@@ -92,7 +91,9 @@ def summarise(results: Sequence[JobResult]) -> dict[str, Any]:
                        "min": float(a.min()) if a.size else None,
                        "max": float(a.max()) if a.size else None}
         cases[case] = {"seeds": sorted(seeds[case]), "metrics": rows}
-    failed = [{"args": list(r.args[1:]), "error": r.error} for r in results if not r.ok]
+    # job args are (folder, case, quick, seed); the folder is a temporary path, not reported
+    failed = [{"case": r.args[1], "seed": r.args[3], "error": r.error}
+              for r in results if not r.ok]
     return {"cases": cases, "failed": failed}
 
 
@@ -108,16 +109,9 @@ def _markdown(summary: Mapping[str, Any]) -> str:
         lines.append("")
     if summary["failed"]:
         lines += ["## Failed jobs", ""]
-        lines += [f"- case {f['args'][1]}, seed {f['args'][3]}: {f['error']}"
+        lines += [f"- case {f['case']}, seed {f['seed']}: {f['error']}"
                   for f in summary["failed"]]
     return "\n".join(lines) + "\n"
-
-
-def _write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 def reproduce_sweep(out: Path | str, *, seeds: Sequence[int], cases: Sequence[str],
@@ -126,7 +120,8 @@ def reproduce_sweep(out: Path | str, *, seeds: Sequence[int], cases: Sequence[st
     """Run every (seed, case) pair and write ``summary.json`` / ``summary.md`` into ``out``.
 
     Args:
-        out: output folder (one sub-folder per seed and case).
+        out: output folder (one sub-folder per seed and case): new, empty, or a previous
+            simgap output (replaced), written by :func:`simgap.outputs.output_folder`.
         seeds: seeds (each a non-negative integer).
         cases: case names from :data:`SWEEP_CASES`.
         quick: the short CI variant of each case.
@@ -138,24 +133,26 @@ def reproduce_sweep(out: Path | str, *, seeds: Sequence[int], cases: Sequence[st
         The summary dict (as written), with ``"files"``.
 
     Raises:
-        EvaluationError: bad seeds, cases or output folder (before any job runs).
+        EvaluationError: no seeds or cases (before any job runs).
+        OutputError: ``out`` holds something of the user's (refused before any job runs).
     """
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise EvaluationError(f"--out {out} exists and is not a folder")
     if not seeds:
         raise EvaluationError("--seeds: no seeds given")
     if not cases:
         raise EvaluationError("--case: no cases given")
-    out.mkdir(parents=True, exist_ok=True)
-    job_list = [(str(out / f"seed-{s}" / f"case-{c}"), c, quick, int(s))
-                for s in seeds for c in cases]
-    results = run_jobs(reproduce_job, job_list, workers=jobs, ray=ray, progress=progress)
-    summary = summarise(results)
-    summary["meta"] = {"seeds": list(map(int, seeds)), "cases": list(cases), "quick": quick,
-                       "jobs": jobs, "backend": "ray" if ray else
-                       ("process pool" if jobs > 1 else "serial")}
-    _write(out / "summary.json", json.dumps(summary, indent=1))
-    _write(out / "summary.md", _markdown(summary))
+    # One transactional folder for the whole sweep (simgap.outputs): the jobs write into
+    # its temporary twin beside OUT, which replaces OUT only when every job has ended.
+    with output_folder(out, kind="reproduce-sweep") as tmp:
+        job_list = [(str(tmp / f"seed-{s}" / f"case-{c}"), c, quick, int(s))
+                    for s in seeds for c in cases]
+        results = run_jobs(reproduce_job, job_list, workers=jobs, ray=ray,
+                           progress=progress)
+        summary = summarise(results)
+        summary["meta"] = {"seeds": list(map(int, seeds)), "cases": list(cases),
+                           "quick": quick, "jobs": jobs, "backend": "ray" if ray else
+                           ("process pool" if jobs > 1 else "serial")}
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
+        (tmp / "summary.md").write_text(_markdown(summary), encoding="utf-8")
     summary["files"] = [str(out / "summary.json"), str(out / "summary.md")]
     return summary

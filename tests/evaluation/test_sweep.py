@@ -9,7 +9,8 @@ import sys
 import pytest
 
 from simgap.evaluation.errors import EvaluationError
-from simgap.evaluation.sweep import parse_cases, reproduce_sweep
+from simgap.evaluation.sweep import _markdown, parse_cases, reproduce_sweep, summarise
+from simgap.sweeps import JobResult
 
 
 def test_process_pool_sweep_equals_the_serial_sweep(tmp_path):
@@ -35,3 +36,22 @@ def test_bad_sweep_arguments_are_rejected_before_any_run(tmp_path):
                            "--out", str(tmp_path / "x")], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "--seeds" in proc.stderr and not (tmp_path / "x").exists()
+
+
+def test_failed_jobs_are_reported_by_case_and_seed():
+    ok = JobResult(index=0, args=("/tmp/x", "2-1", True, 0),
+                   value={"seed": 0, "case": "2-1", "metrics": {"integral/accuracy": 0.5}})
+    bad = JobResult(index=1, args=("/tmp/y", "2-1", True, 7), error="ValueError: boom")
+    s = summarise([ok, bad])
+    assert s["failed"] == [{"case": "2-1", "seed": 7, "error": "ValueError: boom"}]
+    assert s["cases"]["2-1"]["seeds"] == [0]
+    assert "- case 2-1, seed 7: ValueError: boom" in _markdown(s)
+
+
+def test_sweep_refuses_a_folder_with_the_users_files(tmp_path):
+    from simgap.errors import OutputError
+
+    (tmp_path / "mine.txt").write_text("x")
+    with pytest.raises(OutputError):
+        reproduce_sweep(tmp_path, seeds=[0], cases=["2-1"], quick=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.txt"]
