@@ -55,6 +55,12 @@ class SystemSpec:
         env_id: gymnasium id; with ``env_entry_point`` and ``max_episode_steps``.
         env_entry_point: ``"module:Class"`` of the env.
         max_episode_steps: default ``TimeLimit`` of ``gym.make``.
+        model_files: file suffixes that name a model of this system (``".xml"`` for MJCF):
+            ``diagnose(rec, "robot.xml")`` finds the system by its file.
+        diagnose_file: ``"module:function"`` diagnosing a recording against such a file,
+            ``fn(path, recording, **options) -> Report``.
+        model_type: ``"module:Class"`` of the system's nominal models: a model object of
+            this class (or a subclass) gets this system's ``residual_form``.
     """
 
     name: str
@@ -68,6 +74,9 @@ class SystemSpec:
     env_id: str | None = None
     env_entry_point: str | None = None
     max_episode_steps: int | None = None
+    model_files: tuple[str, ...] = ()
+    diagnose_file: str | None = None
+    model_type: str | None = None
 
     @property
     def vocabulary(self) -> tuple[EffectSpec, ...]:
@@ -126,6 +135,38 @@ def get_system(name_or_model: str | Any, error: type[Exception] = ModelError) ->
                 "(add one with simgap.systems.register_system)")
 
 
+def system_of_file(path: Any) -> SystemSpec | None:
+    """The registered system whose ``model_files`` suffixes name ``path`` (or ``None``)."""
+    import os
+
+    if not isinstance(path, str | os.PathLike):
+        return None
+    name = os.fspath(path).lower()
+    for spec in SYSTEMS.values():
+        if spec.diagnose_file and any(name.endswith(s) for s in spec.model_files):
+            return spec
+    return None
+
+
+def system_of_model(model: Any) -> SystemSpec | None:
+    """The registered system whose ``model_type`` a nominal-model object is (or ``None``).
+
+    The most recently registered matching system wins, so a user system registered for a
+    subclass of a built-in model takes precedence.
+    """
+    for spec in reversed(list(SYSTEMS.values())):
+        if spec.model_type is None:
+            continue
+        module, _, attr = spec.model_type.partition(":")
+        try:
+            cls = getattr(importlib.import_module(module), attr)
+        except ImportError:  # an optional dependency (mujoco) that is not installed
+            continue
+        if isinstance(model, cls):
+            return spec
+    return None
+
+
 def identifier_preset_of(model: Any) -> str:
     """The thesis identifier preset of a nominal model's registered system.
 
@@ -149,6 +190,7 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
              form: str, generator: str, env_id: str, env: str, steps: int) -> SystemSpec:
     """A built-in system: its plant schema names it and its parameter class."""
     return register_system(SystemSpec(
+        model_type=f"{nominal_cls.__module__}:{nominal_cls.__name__}",
         name=schema.system, params_cls=schema.params_cls,
         nominal=lambda params, dt=None: nominal_cls(params, **({} if dt is None else {"dt": dt})),
         plant_schema=schema, recording=RecordingSchema(canonical=columns),
@@ -164,3 +206,11 @@ _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
          form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
          env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)
+
+#: A MuJoCo model file (MJCF ``.xml`` or compiled ``.mjb``): any mechanical model MuJoCo
+#: describes; no plant, generator or env of its own.
+register_system(SystemSpec(
+    name="mjcf", model_files=(".xml", ".mjb"),
+    diagnose_file="simgap.diagnosis.mujoco:diagnose_mjcf",
+    model_type="simgap.models.mujoco:MujocoNominal",
+    residual_form="simgap.diagnosis.mujoco:MujocoSystem"))

@@ -77,6 +77,20 @@ def injectable_effects(model: str) -> list[EffectInfo]:
         in_vocabulary=e.vocabulary) for e in schema.vocabulary]
 
 
+def generator_options(model: str, **options: object) -> dict[str, object]:
+    """The ``options`` that the registered system's generator takes (by parameter name).
+
+    ``simgap record`` passes ``--program``/``--vx`` this way: a system whose generator has
+    such a parameter gets them, with no per-model switch in the command.
+    """
+    import inspect
+
+    from simgap.systems import get_system
+
+    params = inspect.signature(get_system(model, GeneratorError).resolve("generator")).parameters
+    return {k: v for k, v in options.items() if k in params}
+
+
 def effect_table_lines(model: str) -> list[str]:
     """Plain-text table of :func:`injectable_effects` for ``simgap record --list-effects``."""
     rows = [("effect", "channel", "parameters (unit, default)", "meaning")]

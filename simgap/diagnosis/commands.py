@@ -171,7 +171,7 @@ def register(app: typer.Typer) -> None:
             _fail(f"{out}: unknown file type {out.suffix!r}; use .csv or .parquet")
         if not out.parent.exists():
             _fail(f"{out.parent}: folder does not exist")
-        from simgap.diagnosis.catalog import injectable_effects
+        from simgap.diagnosis.catalog import generator_options, injectable_effects
 
         try:  # the model name is looked up in the system registry (imports the models)
             injectable_effects(model)
@@ -181,8 +181,8 @@ def register(app: typer.Typer) -> None:
         kwargs: dict = {"seed": seed}
         if duration is not None:
             kwargs["duration"] = duration
-        if model == "bicycle":
-            kwargs.update(program=program, vx=vx)
+        # options the registered system's generator takes (the bicycle's program and vx)
+        kwargs.update(generator_options(model, program=program, vx=vx))
         try:
             for t in targets:
                 check_file_target(t)

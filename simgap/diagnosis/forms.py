@@ -56,6 +56,9 @@ class EffectContext:
         lagged_steering: ``(axle, tau) -> road-wheel angle (rad) per row``; bicycle.
         axle_mu: friction coefficient of the tire_saturation term per axle, when the same
             model has one (the steering lag composes with it).
+        t: the uniform time grid (s); mechanical forms (the input delay).
+        held_input: the logged inputs as held between samples (N·m or N), (N, n);
+            mechanical forms.
     """
 
     n_channels: int
@@ -68,6 +71,8 @@ class EffectContext:
     K_inv: np.ndarray | None = None
     lagged_steering: Callable[[int, float], np.ndarray] | None = None
     axle_mu: Mapping[int, float] = field(default_factory=dict)
+    t: np.ndarray | None = None
+    held_input: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "axle_mu", MappingProxyType(dict(self.axle_mu)))

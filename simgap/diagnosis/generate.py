@@ -11,7 +11,8 @@ diagnosis never reads either.
   measurements; the plant is the nominal arm plus the injected effects
   (:func:`simgap.models.manipulator.plant_step`, 20 RK4 sub-steps per 2 ms so that the stiff
   tanh friction is integrated accurately). ``tau`` is the torque the motor applied (the
-  controller output, held over the sample period).
+  controller output, held over the sample period; an ``input_delay`` makes the plant feel
+  it d seconds later, sub-steps split where the delayed command switches).
 * ``bicycle``: scripted steering (random sine segments, slalom, chirp or steps) at a slowly
   varying speed; ``delta_f``/``delta_r`` are the *commanded* angles (a steering lag makes the
   road-wheel angle lag them). Plant: :func:`simgap.models.bicycle.plant_step`.
@@ -131,7 +132,7 @@ def waypoint_reference(t: np.ndarray, seed: int, *,
 
 @njit(cache=True)
 def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, kp, kd, dt,
-                      n_sub, s0):  # pragma: no cover - compiled
+                      n_sub, s0, delay_steps, delay_frac, cuts):  # pragma: no cover - compiled
     n = q_ref.shape[0]
     states = np.empty((n, 4))
     meas = np.empty((n, 4))
@@ -153,7 +154,19 @@ def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, 
         u[0] = mv[0] + bias[0]
         u[1] = mv[1] + bias[1]
         taus[k] = u
-        s = rk4(man.plant_derivative, s, u, theta, dt, n_sub)
+        if cuts.shape[0] == 0:
+            s = rk4(man.plant_derivative, s, u, theta, dt, n_sub)
+            continue
+        # transport delay d_j = (m_j + f_j)·dt of joint j's held command: over this sample
+        # the command of row k − m_j − 1 acts until f_j·dt, then that of row k − m_j; the
+        # sample is integrated in segments between the switch times ``cuts`` (fractions)
+        for c in range(cuts.shape[0] - 1):
+            a, b = cuts[c], cuts[c + 1]
+            for j in range(2):
+                row = k - delay_steps[j] - (1 if 0.5 * (a + b) < delay_frac[j] else 0)
+                v[j] = taus[max(row, 0), j]
+            s = rk4(man.plant_derivative, s, v, theta, (b - a) * dt,
+                    max(1, int(round(n_sub * (b - a)))))
     return states, meas, taus
 
 
@@ -195,8 +208,13 @@ def generate_manipulator(effects: Sequence[InjectedEffect] = (), *, duration: fl
     ref_seq, noise_seq = np.random.SeedSequence(seed).spawn(2)
     rng = np.random.default_rng(noise_seq)
     p = params or man.ManipulatorParams()
-    theta = manipulator_plant(effects, p)
+    plant = man.PLANT_SCHEMA.plant(p, instances(effects, man.PLANT_SCHEMA))
+    theta = plant.array
     dt = 1.0 / rate
+    delays = np.asarray(plant.folded.extras["input_delay"]) / dt
+    delay_steps, delay_frac = np.floor(delays).astype(np.int64), delays - np.floor(delays)
+    cuts = np.unique(np.concatenate([[0.0, 1.0], delay_frac])) if np.any(delays > 0) \
+        else np.empty(0)
     n = int(round(duration * rate)) + 1
     t = np.arange(n) * dt
     q_ref, dq_ref, ddq_ref = waypoint_reference(t, int(ref_seq.generate_state(1)[0]))
@@ -204,7 +222,8 @@ def generate_manipulator(effects: Sequence[InjectedEffect] = (), *, duration: fl
     ndq = rng.normal(0.0, noise_dq, size=(n, 2))
     s0 = np.array([q_ref[0, 0], q_ref[0, 1], 0.0, 0.0])
     _, meas, taus = _manipulator_loop(theta, p.array, q_ref, dq_ref, ddq_ref, nq, ndq,
-                                      float(kp), float(kd), dt, int(n_sub), s0)
+                                      float(kp), float(kd), dt, int(n_sub), s0,
+                                      delay_steps, delay_frac, cuts)
     tau_log = taus + rng.normal(0.0, noise_tau, size=taus.shape) if noise_tau > 0 else taus
     cols = {"t": t, "q1": meas[:, 0], "q2": meas[:, 1], "dq1": meas[:, 2], "dq2": meas[:, 3],
             "tau1": tau_log[:, 0], "tau2": tau_log[:, 1]}

@@ -33,13 +33,21 @@ from typing import Any
 
 import numpy as np
 
-from simgap.diagnosis.effects import PAYLOAD, Effect
+from simgap.diagnosis.effects import PAYLOAD, VOCABULARY, Effect
 from simgap.diagnosis.forms import EffectContext
-from simgap.diagnosis.systems import ModelMechanicalSystem, _held
+from simgap.diagnosis.systems import ModelMechanicalSystem
 from simgap.diagnosis.user_models import column_map_of, with_columns
 from simgap.errors import CustomModelError
 from simgap.models.mujoco import MujocoNominal, from_mjcf
-from simgap.recordings import Column, ColumnMap, RecordingSchema, _read_table, read
+from simgap.recordings import (
+    Column,
+    ColumnMap,
+    Recording,
+    RecordingSchema,
+    _read_table,
+    conform,
+    read,
+)
 
 #: Longest actuator delay looked for (s).
 MAX_DELAY = 0.1
@@ -50,28 +58,14 @@ class MujocoEffectContext(EffectContext):
     """The mechanical context plus what the MJCF-only effects read.
 
     Attributes:
-        t: the uniform time grid (s).
-        held_input: the logged joint efforts as held between samples (N·m or N), (N, n).
         payload_at: ``(point, sig) -> joint efforts per kg`` at a tip point (N·m/kg or N/kg).
     """
 
-    t: np.ndarray
-    held_input: np.ndarray
     payload_at: Callable[[tuple, Mapping[str, np.ndarray]], np.ndarray]
 
 
-def _input_delay(lin, nl, sig, j, ctx):
-    """Effort change (N·m or N) from the logged input acting ``nl[0]`` seconds late."""
-    u = ctx.held_input[:, j]
-    late = np.interp(ctx.t - nl[0], ctx.t, u)
-    out = np.zeros((len(sig["idx"]), ctx.n_channels))
-    out[:, j] = (u - late)[sig["idx"]]
-    return out
-
-
-INPUT_DELAY = Effect(name="input_delay", label="actuator delay", scope="joint", nl=("delay",),
-                     nl_units=("s",), nl_bounds=((1e-4, MAX_DELAY),),
-                     nl_grid=((0.002, 0.005, 0.01, 0.02, 0.05),), fn=_input_delay)
+#: The vocabulary's input delay (one per joint), tested for every mechanical model now.
+INPUT_DELAY = VOCABULARY["input_delay"]
 
 
 def _payload_at(point: tuple[str, int, np.ndarray]) -> Effect:
@@ -98,25 +92,22 @@ class MujocoSystem(ModelMechanicalSystem):
         self._payload_cache: dict[tuple, np.ndarray] = {}
 
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
-        """Joint vocabulary (model units), payload per tip point, input delay per joint."""
+        """Joint vocabulary (model units, input delay included), payload per tip point."""
         out = super().candidates()
         out += [(e, None, "arm") for e in self.payload_effects]
-        out += [(INPUT_DELAY, j, self.channels[j]) for j in range(self.n_channels)]
         return out
 
     def prepare(self, rec):
-        """Filter, compute the residual; keep the held input for the delay effect."""
+        """Filter, compute the residual (and the held input the delay effect shifts)."""
         res = super().prepare(rec)
-        self.held_input = _held(self._u_hold, self.columns.input_hold)
         self._payload_cache.clear()
         return res
 
     def context(self, terms: Sequence[tuple] = ()) -> MujocoEffectContext:
-        """The mechanical context with the time grid, held input and tip-point regressor."""
+        """The mechanical context with the tip-point regressor."""
         base = super().context(terms)
         fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
-        return MujocoEffectContext(**fields, t=self.t, held_input=self.held_input,
-                                   payload_at=self.payload_regressor_at)
+        return MujocoEffectContext(**fields, payload_at=self.payload_regressor_at)
 
     def payload_regressor_at(self, point, sig) -> np.ndarray:
         """Joint efforts per kg at ``point`` for the rows of ``sig`` (cached on the grid)."""
@@ -147,40 +138,6 @@ class MujocoSystem(ModelMechanicalSystem):
         soft = np.abs(self.sig["dq"]) >= 2.0 * np.abs(self.sig["ddq"]) / b
         return super().fit_mask() & soft
 
-    # -- simulation with a delayed input ----------------------------------------------
-    def _delayed(self, effects, rows: np.ndarray) -> tuple[list, np.ndarray | None]:
-        """(effects without input delays, per-row input with the delays applied or None)."""
-        delays = [(j, float(nl[0])) for eff, j, lin, nl in effects
-                  if eff.name == "input_delay"]
-        if not delays:
-            return list(effects), None
-        u = self.held_input.copy()
-        for j, tau in delays:
-            u[:, j] = np.interp(self.t - tau, self.t, self.held_input[:, j])
-        rest = [e for e in effects if e[0].name != "input_delay"]
-        return rest, u[rows]
-
-    def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
-        """Model ddq at the recorded states with the (delayed) recorded inputs."""
-        rest, u = self._delayed(effects, idx)
-        if u is None:
-            return super().predicted_derivative(idx, effects)
-        u_late = self.sig["u"][idx] - (self.held_input[idx] - u)
-        return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], u_late, rest)
-
-    def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
-        """One RK4 step with the recorded input of rows k (delayed where an effect says)."""
-        rest, u = self._delayed(effects, k)
-        if u is None:
-            return super().step(s, k, effects, dt)
-        saved = self._u_hold
-        try:
-            self._u_hold = saved.copy()
-            self._u_hold[k] = u
-            return super().step(s, k, rest, dt)
-        finally:
-            self._u_hold = saved
-
 
 # --------------------------------------------------------------------------- loading
 def default_columns(model: MujocoNominal, header: list[str]) -> dict[str, Column]:
@@ -202,16 +159,28 @@ def default_columns(model: MujocoNominal, header: list[str]) -> dict[str, Column
     return cols
 
 
-def load_mjcf_inputs(xml: str | Path, recording: str | Path,
-                     columns: str | Path | None = None,
+def load_mjcf_inputs(xml: str | Path, recording: str | Path | Recording,
+                     columns: str | Path | ColumnMap | None = None,
                      joints: list[str] | None = None) -> tuple[MujocoSystem, Any]:
-    """(adapter, recording in canonical columns) for an MJCF nominal and a user's log."""
+    """(adapter, recording in canonical columns) for an MJCF nominal and a user's log.
+
+    ``recording`` may be a file or an in-memory :class:`~simgap.recordings.Recording`.
+    """
     model = from_mjcf(Path(xml), joints=joints)
+    if isinstance(recording, Recording):
+        cols = default_columns(model, list(recording.columns))
+        if columns is not None:
+            cols.update((columns if isinstance(columns, ColumnMap)
+                         else ColumnMap.from_json(columns)).columns)
+        model = with_columns(model, ColumnMap(cols))
+        return MujocoSystem(model), conform(recording, RecordingSchema.of(model),
+                                            column_map_of(model))
     recording = Path(recording)
     header = list(_read_table(recording).columns) if recording.is_file() else []
     cols = default_columns(model, header)
     if columns is not None:
-        cols.update(ColumnMap.from_json(columns).columns)
+        cols.update((columns if isinstance(columns, ColumnMap)
+                     else ColumnMap.from_json(columns)).columns)
     missing = [c for c in model.recording_columns
                if c not in cols and c not in model.derivable_columns]
     if missing and recording.is_file():
@@ -223,15 +192,16 @@ def load_mjcf_inputs(xml: str | Path, recording: str | Path,
                                      column_map_of(model))
 
 
-def diagnose_mjcf(xml: str | Path, recording: str | Path, *, columns: str | Path | None = None,
+def diagnose_mjcf(xml: str | Path, recording: str | Path | Recording, *,
+                  columns: str | Path | ColumnMap | None = None,
                   joints: list[str] | None = None, duration: float | None = None,
                   **kwargs: Any) -> Any:
     """Run the diagnosis of ``recording`` against the MJCF ``xml``; returns the Report.
 
     Args:
         xml: the nominal MJCF.
-        recording: the log (CSV/Parquet).
-        columns: optional ``--columns`` JSON file.
+        recording: the log (CSV/Parquet) or a :class:`~simgap.recordings.Recording`.
+        columns: optional ``--columns`` JSON file (or a ColumnMap).
         joints: joints to diagnose (default all hinge/slide joints; others held at qpos0).
         duration: diagnose only the first ``duration`` seconds.
         **kwargs: passed to :func:`simgap.diagnosis.pipeline.diagnose`.

@@ -40,9 +40,9 @@ from simgap import plausibility
 from simgap.diagnosis import locate
 from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, AugmentedMechanical
 from simgap.diagnosis.compare import Comparison, compare
-from simgap.diagnosis.effects import report_params
+from simgap.diagnosis.effects import needs_context, report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
-from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem, ModelMechanicalSystem
+from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.errors import DiagnosisError
@@ -59,7 +59,7 @@ from simgap.recordings import (
     recording_from_arrays,
 )
 from simgap.recordings import read as read_columns
-from simgap.systems import get_system
+from simgap.systems import get_system, system_of_file, system_of_model
 
 MODELS = ("manipulator2dof", "bicycle")
 
@@ -182,12 +182,16 @@ def make_system(model: str | Any, params: Mapping[str, Any] | None = None, *,
 
 
 def _adapter(model: Any, recorded: set[str] | None) -> Any:
+    """The residual form of a model (its registered system's ``residual_form``).
+
+    A model of no registered system gets the generic mechanical form over its own columns
+    and units.
+    """
     if is_adapter(model):
         return model
-    if isinstance(model, BicycleNominal):
-        return BicycleSystem(model, name=getattr(model, "name", None) or "bicycle")
-    if isinstance(model, ManipulatorNominal):
-        return MechanicalSystem(model)
+    spec = system_of_model(model)
+    if spec is not None and spec.residual_form is not None:
+        return spec.resolve("residual_form")(model)
     velocities = None
     if recorded is not None:
         n = len(model.input_names)
@@ -256,14 +260,14 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
     resid = r - total
     slices = fit.slices()
     entries, preds, fitted = [], [], []
-    coulomb = {t.index: i for i, t in enumerate(fit.terms) if t.effect.name == "coulomb_friction"}
     for i, term in enumerate(fit.terms):
         sl = slices[i]
-        ctx: dict[str, float] = {}
-        if term.effect.name == "stribeck_friction" and term.index in coulomb:
-            j = coulomb[term.index]
-            ctx = {"Fc": float(fit.lin[j][0]), "var_Fc": float(fit.cov[slices[j], slices[j]][0, 0]),
-                   "cov_A_Fc": float(fit.cov[sl.start, slices[j].start])}
+        # what the effects this one needs on its channel fitted (Stribeck's Fs includes Fc)
+        ctx = needs_context(term.effect, term.index, {
+            (t.effect.name, t.index): (float(fit.lin[k][0]),
+                                       float(fit.cov[slices[k].start, slices[k].start]),
+                                       float(fit.cov[sl.start, slices[k].start]))
+            for k, t in enumerate(fit.terms) if len(fit.lin[k])})
         params, se, units = report_params(term.effect, fit.lin[i], fit.nl[i], fit.cov[sl, sl], ctx)
         p_i = fit.pred[i][test] * fitter.w
         cols = [term.index] if term.index is not None else list(range(fitter.c))
@@ -329,6 +333,13 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
         DiagnosisError: unknown model or parameter.
         CustomModelError: unusable model file, model or column map.
     """
+    by_file = system_of_file(model)  # a model file of a registered system (MJCF .xml)
+    if by_file is not None:
+        if params:
+            raise DiagnosisError(f"parameter overrides do not apply to {model}; edit the file")
+        return by_file.resolve("diagnose_file")(model, recording, columns=columns,
+                                                duration=duration, horizon=horizon,
+                                                train_fraction=train_fraction)
     obj, spec = resolve_model(model, params)
     rec = _read(recording, obj, columns)
     if duration is not None:

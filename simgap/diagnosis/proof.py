@@ -40,7 +40,8 @@ RANGES: dict[str, tuple[str, tuple[str, ...] | None, dict[str, tuple[float, floa
 ABS_SCALE = {"q0": 0.5}
 #: Where the diagnosis reports effects that the generator injects without a channel.
 EXPECTED_CHANNELS = {"tire_saturation": ("front_axle", "rear_axle"),
-                     "steering_lag": ("front_axle",)}
+                     "steering_lag": ("front_axle",),
+                     "input_delay": ("joint1", "joint2")}
 TOLERANCE = 0.2
 
 

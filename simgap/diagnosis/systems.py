@@ -45,6 +45,7 @@ from simgap.errors import CustomModelError
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, axle_loads, state_derivative
+from simgap.models.effects import format_unit
 from simgap.models.tires import MagicFormulaTire
 from simgap.recordings import Recording
 
@@ -248,6 +249,7 @@ class MechanicalSystem:
         self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
+        self.held_input = _held(self._u_hold, c.input_hold)  # what an input delay shifts
         return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
                               smoother=sm, resampled=resampled, column_noise=col_noise)
 
@@ -258,14 +260,16 @@ class MechanicalSystem:
         return out
 
     def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
-        """Effects' context: Coulomb smoothing, gravity torques, the arm's payload regressor.
+        """Effects' context: Coulomb smoothing, gravity, payload regressor, held input.
 
-        Mechanical terms do not couple, so ``terms`` changes nothing.
+        The time grid and the held input serve the input delay. Mechanical terms do not
+        couple, so ``terms`` changes nothing.
         """
         return EffectContext(n_channels=self.n_channels, coulomb_sigma=self.coulomb_sigma,
                              gravity=self.gravity,
                              payload_regressor=self.payload_regressor if self.is_manipulator
-                             else None)
+                             else None, t=getattr(self, "t", None),
+                             held_input=getattr(self, "held_input", None))
 
     def fit_mask(self) -> np.ndarray:
         """Rows (N, n) whose joint residual is determinate: |dq| above 3 Coulomb widths.
@@ -304,6 +308,8 @@ class MechanicalSystem:
         ctx = self.context(effects)
         a = np.zeros((n, nc, nc))
         for eff, idx, lin, nl in effects:
+            if getattr(eff, "on_input", False):  # acts on the input (see _delayed)
+                continue
             base = eff(lin, nl, zero, idx, ctx)
             b += base
             if eff.uses_derivatives:
@@ -332,15 +338,35 @@ class MechanicalSystem:
         """Measured velocity-state derivative (ddq) at rows ``idx``."""
         return self.sig["ddq"][idx]
 
+    def _delayed(self, effects, rows: np.ndarray) -> tuple[list, np.ndarray | None]:
+        """(effects without input delays, per-row held input with the delays or None)."""
+        delays = [(j, float(nl[0])) for eff, j, lin, nl in effects
+                  if getattr(eff, "on_input", False)]
+        if not delays:
+            return list(effects), None
+        u = self.held_input.copy()
+        for j, tau in delays:
+            u[:, j] = np.interp(self.t - tau, self.t, self.held_input[:, j])
+        rest = [e for e in effects if not getattr(e[0], "on_input", False)]
+        return rest, u[rows]
+
     def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
-        """Model ddq at the recorded states and inputs."""
+        """Model ddq at the recorded states and (delayed, if an effect says) inputs."""
+        rest, u = self._delayed(effects, idx)
+        if u is not None:
+            u_late = self.sig["u"][idx] - (self.held_input[idx] - u)
+            return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], u_late, rest)
         return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], self.sig["u"][idx],
                                  effects)
 
     def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
-        """One RK4 step of a batch of states s = (q, dq) with the recorded input of rows k."""
+        """One RK4 step of a batch of states s = (q, dq) with the recorded input of rows k.
+
+        The input is delayed where an input-delay effect says.
+        """
         nc = self.n_channels
-        u = self._u_hold[k]
+        effects, delayed = self._delayed(effects, k)
+        u = self._u_hold[k] if delayed is None else delayed
 
         def deriv(x):
             return np.concatenate([x[:, nc:], self.acceleration(x[:, :nc], x[:, nc:], u,
@@ -359,12 +385,12 @@ class BicycleSystem:
     kind = "bicycle"
 
     def __init__(self, model: BicycleNominal | None = None,
-                 columns: AdapterColumns = BICYCLE_COLUMNS, name: str = "bicycle",
+                 columns: AdapterColumns = BICYCLE_COLUMNS, name: str | None = None,
                  tire: MagicFormulaTire | None = None) -> None:
         self.model = model or BicycleNominal()
         self.params = self.model.params
         self.columns = columns
-        self.name = name
+        self.name = name or getattr(self.model, "name", None) or "bicycle"
         self.channels = ("front_axle", "rear_axle")
         self.channel_units = ("N", "N")
         self.n_channels = 2
@@ -571,20 +597,23 @@ def _joint_units(model: Any, n: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return pos, eff
 
 
+#: Revolute-joint units of the old vocabulary tables and their templates (format_unit).
+_REVOLUTE_TEMPLATES = {"N·m·s": "{effort}·s/{position}", "N·m/rad": "{effort}/{position}",
+                       "N·m": "{effort}", "rad/s²": "{position}/s²", "rad/s": "{position}/s",
+                       "rad": "{position}", "kg·m²": "{inertia}"}
+
+
 def translate_unit(unit: str, position: str, effort: str) -> str:
-    """Rewrite a vocabulary unit written for a revolute joint (rad, N·m) for this joint.
+    """Rewrite a unit written for a revolute joint (rad, N·m) for this joint.
 
     Example: for a prismatic joint (m, N), ``N·m·s`` (viscous b) becomes ``N·s/m`` and
-    ``kg·m²`` (inertia) becomes ``kg``.
+    ``kg·m²`` (inertia) becomes ``kg``. The vocabulary itself holds unit templates filled
+    by :func:`simgap.models.effects.format_unit`; this maps the revolute spelling to its
+    template and fills it.
     """
     if position == "rad" and effort == "N·m":
         return unit
-    table = {
-        "N·m·s": f"{effort}·s/{position}", "N·m/rad": f"{effort}/{position}",
-        "N·m": effort, "rad/s²": f"{position}/s²", "rad/s": f"{position}/s", "rad": position,
-        "kg·m²": "kg" if (position, effort) == ("m", "N") else f"{effort}·s²/{position}",
-    }
-    return table.get(unit, unit)
+    return format_unit(_REVOLUTE_TEMPLATES.get(unit, unit), effort=effort, position=position)
 
 
 class ModelMechanicalSystem(MechanicalSystem):
@@ -626,10 +655,6 @@ class ModelMechanicalSystem(MechanicalSystem):
         self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
         self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
 
-    def _unit(self, unit: str, j: int | None) -> str:
-        k = 0 if j is None else j
-        return translate_unit(unit, self.position_units[k], self.channel_units[k])
-
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
         """List the base candidates with model units and data-scaled Stribeck bounds."""
         out = []
@@ -638,15 +663,14 @@ class ModelMechanicalSystem(MechanicalSystem):
         for effect, j, channel in super().candidates():
             if effect.name == "gravity_mismatch" and gravity == 0.0:
                 continue
-            changes: dict[str, Any] = {
-                "lin_units": tuple(self._unit(u, j) for u in effect.lin_units),
-                "nl_units": tuple(self._unit(u, j) for u in effect.nl_units)}
+            k = 0 if j is None else j
+            effect = effect.in_units(effort=self.channel_units[k],
+                                     position=self.position_units[k])
+            changes: dict[str, Any] = {}
             if effect.name == "stribeck_friction" and j is not None:
                 hi = max(STRIBECK_MAX_SHARE * float(vmax[j]), 2e-3)
                 changes["nl_bounds"] = ((1e-3 * hi, hi),)
                 changes["nl_grid"] = (tuple(hi * np.array([0.05, 0.15, 0.4, 0.9])),)
-            if effect.to_report is not None:
-                changes["to_report"] = _report_in_units(effect.to_report, self._unit, j)
             out.append((dataclasses.replace(effect, **changes), j, channel))
         return out
 
@@ -656,15 +680,6 @@ class ModelMechanicalSystem(MechanicalSystem):
         units = self.position_units + self.state_units[self.n_channels:] + \
             self.derivative_units
         return {k: (v, units[i]) for i, (k, (v, _)) in enumerate(out.items())}
-
-
-def _report_in_units(fn: Any, unit: Any, j: int | None) -> Any:
-    """Wrap an effect's report function so that its units are rewritten for the joint."""
-    def report(*args: Any, **kwargs: Any) -> tuple[dict, dict, dict]:
-        params, stderr, units = fn(*args, **kwargs)
-        return params, stderr, {k: unit(u, j) for k, u in units.items()}
-    return report
-
 
 
 def _label(model: Any) -> str:

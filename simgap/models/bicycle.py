@@ -26,11 +26,14 @@ from simgap.models.base import BaseNominalModel, validate_positive
 from simgap.models.effects import (
     EffectInstance,
     EffectSpec,
+    FitSpec,
     Folded,
     Param,
     Plant,
     PlantSchema,
     channel_index,
+    on_channel,
+    stderr_of,
 )
 from simgap.models.integrators import rk4
 from simgap.models.slots import Slots
@@ -371,36 +374,114 @@ def _relaxation(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
         acc["relax"][a] += v["length"]
 
 
+# --------------------------------------------------------------------------- fit side
+# Contributions of the vocabulary to the axle-force residual Delta = K⁻¹(dx/dt − f) (N per
+# axle, thesis eq. 2.4-2.7), used by the diagnosis (``FitSpec.fn``). ``sig``: ``vy``, ``r``,
+# ``dvy``, ``dr``, ``vx``, ``delta_f``, ``delta_r``, ``alpha_f``, ``alpha_r`` (N,) and
+# ``idx``; ``ctx``: the diagnosis' EffectContext (stiffness, loads, tire, K_inv, ...).
+AXLE_KEYS = (("alpha_f", "delta_f"), ("alpha_r", "delta_r"))
+
+
+def _fit_saturation(lin, nl, sig, i, ctx):
+    alpha = sig[AXLE_KEYS[i][0]]
+    ca, fz = ctx.stiffness[i], ctx.loads[i]
+    fy = magic_formula(alpha, ca, fz, nl[0], ctx.tire.C, ctx.tire.E)
+    return on_channel(fy - ca * alpha, i, 2)
+
+
+def _fit_stiffness(lin, nl, sig, i, ctx):
+    return on_channel(lin[0] * ctx.stiffness[i] * sig[AXLE_KEYS[i][0]], i, 2)
+
+
+def _fit_steer_lag(lin, nl, sig, i, ctx):
+    """Force change (N) from the road-wheel angle lagging the command.
+
+    It goes through the axle's tire law of the same model — the Magic Formula if a
+    tire_saturation term with mu is fitted on this axle (``ctx.axle_mu``), else the linear
+    tire — so that the two effects compose exactly.
+    """
+    lagged = ctx.lagged_steering(i, nl[0])[sig["idx"]]
+    d_delta = lagged - sig[AXLE_KEYS[i][1]]
+    mu = ctx.axle_mu.get(i)
+    if mu is None:
+        return on_channel(ctx.stiffness[i] * d_delta, i, 2)
+    alpha = sig[AXLE_KEYS[i][0]]
+    ca, fz = ctx.stiffness[i], ctx.loads[i]
+    fy = magic_formula(alpha + d_delta, ca, fz, mu, ctx.tire.C, ctx.tire.E) - \
+        magic_formula(alpha, ca, fz, mu, ctx.tire.C, ctx.tire.E)
+    return on_channel(fy, i, 2)
+
+
+def _fit_lateral(lin, nl, sig, i, ctx):
+    return lin[0] * np.outer(np.ones(sig["vy"].shape[0]), ctx.K_inv[:, 0])
+
+
+def _fit_yaw(lin, nl, sig, i, ctx):
+    return lin[0] * np.outer(np.ones(sig["vy"].shape[0]), ctx.K_inv[:, 1])
+
+
+def _fit_mass(lin, nl, sig, i, ctx):
+    ay = sig["dvy"] + sig["vx"] * sig["r"]
+    return -lin[0] * np.outer(ay, ctx.K_inv[:, 0])
+
+
+def _fit_yaw_inertia(lin, nl, sig, i, ctx):
+    return -lin[0] * np.outer(sig["dr"], ctx.K_inv[:, 1])
+
+
+def _ratio_report(effect, lin, nl, cov, context):
+    """Report ratio = 1 + internal (ratio − 1)."""
+    return ({"ratio": float(1.0 + lin[0])}, {"ratio": stderr_of(cov, 0)}, {"ratio": "-"})
+
+
+def _ratio_fit(scope: str, lower: float, upper: float, fn: Any, *,
+               uses_derivatives: bool = False) -> FitSpec:
+    """A ratio fitted as ratio − 1 within [lower, upper] and reported as the ratio."""
+    return FitSpec(scope=scope, lin=("ratio_minus_1",), lin_units=("-",), lin_lower=(lower,),
+                   lin_upper=(upper,), uses_derivatives=uses_derivatives, fn=fn,
+                   to_report=_ratio_report)
+
+
 #: The vehicle's effect vocabulary (``spec/diagnosis.md``) plus the injection-only
 #: ``tire_relaxation``, in fold order.
 VOCABULARY = (
     EffectSpec(name="tire_saturation", label="tire saturation", scope="channel",
                all_channels=True,
                params=(Param(name="mu", unit="-", bounds=(1e-9, math.inf), inject=(0.5, 0.8)),),
-               write=_saturation),
+               write=_saturation,
+               fit=FitSpec(scope="axle", nl=("mu",), nl_units=("-",), nl_bounds=((0.1, 3.0),),
+                           nl_grid=((0.4, 0.7, 1.0, 1.5, 2.5),), fn=_fit_saturation)),
     EffectSpec(name="cornering_stiffness", label="cornering stiffness off", scope="channel",
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(0.7, 0.85)),),
-               write=_stiffness),
+               write=_stiffness, fit=_ratio_fit("axle", -0.7, 1.5, _fit_stiffness)),
     EffectSpec(name="lateral_bias", label="lateral bias", scope="system",
                params=(Param(name="ay0", unit="m/s²", bounds=_ANY, inject=(0.2, 0.5),
                              signed=True),),
-               write=_value("lateral_bias", "ay0")),
+               write=_value("lateral_bias", "ay0"),
+               fit=FitSpec(scope="vehicle", lin=("ay0",), lin_units=("m/s²",),
+                           lin_lower=(-math.inf,), fn=_fit_lateral)),
     EffectSpec(name="yaw_bias", label="yaw bias", scope="system",
                params=(Param(name="dr0", unit="rad/s²", bounds=_ANY, inject=(0.08, 0.2),
                              signed=True),),
-               write=_value("yaw_bias", "dr0")),
+               write=_value("yaw_bias", "dr0"),
+               fit=FitSpec(scope="vehicle", lin=("dr0",), lin_units=("rad/s²",),
+                           lin_lower=(-math.inf,), fn=_fit_yaw)),
     EffectSpec(name="mass_mismatch", label="mass mismatch", scope="system",
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.1, 1.25)),),
-               write=_scale("m")),
+               write=_scale("m"),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_mass, uses_derivatives=True)),
     EffectSpec(name="yaw_inertia_mismatch", label="yaw inertia mismatch", scope="system",
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.15, 1.3)),),
-               write=_scale("Iz")),
+               write=_scale("Iz"),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_yaw_inertia, uses_derivatives=True)),
     EffectSpec(name="steering_lag", label="steering lag", scope="channel", all_channels=True,
                params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
-               write=_value("steering_lag", "tau"), needs=("tire_saturation",)),
+               write=_value("steering_lag", "tau"), needs=("tire_saturation",),
+               fit=FitSpec(scope="axle", nl=("tau",), nl_units=("s",), nl_bounds=((1e-3, 0.5),),
+                           nl_grid=((0.02, 0.05, 0.1, 0.3),), fn=_fit_steer_lag)),
     EffectSpec(name="tire_relaxation", label="tire relaxation", scope="channel",
                all_channels=True, vocabulary=False,
                params=(Param(name="length", unit="m", bounds=_NONNEG),),

@@ -1,9 +1,12 @@
 """A plant is nominal parameters plus named effect instances (value objects, no fitting code).
 
 * :class:`Param` and :class:`EffectSpec` declare one effect of a system's vocabulary: its
-  parameters (units with ``{effort}``/``{position}`` placeholders, bounds, injection range),
-  whether it acts per channel (joint, axle) or on the whole system, what it needs, and how
-  an instance enters the plant (``write`` into the system's fold).
+  parameters (units with ``{effort}``/``{position}``/``{inertia}`` placeholders, bounds,
+  injection range), whether it acts per channel (joint, axle) or on the whole system, what
+  it needs, how an instance enters the plant (``write`` into the system's fold) and how the
+  diagnosis fits it (:class:`FitSpec`: its contribution to the residual, written with the
+  same ``models/`` functions the plant uses, the fit coordinates and their bounds, and the
+  map back to the reported parameters).
 * :class:`EffectInstance` is one effect with values: ``coulomb_friction@joint2, Fc=0.26``.
 * :class:`PlantSchema` is what a system's kernel module declares about its plant: the
   parameter class, the channels, the vocabulary, the default options and the fold that turns
@@ -50,6 +53,76 @@ class Param:
     default: float | None = None
 
 
+#: Signature of a fitted effect's contribution: ``fn(lin, nl, sig, index, ctx)`` returns the
+#: effect's share of the physical residual, shape (N, n_channels), in channel units (N·m or
+#: N). ``sig`` holds the recording's filtered signals by name, ``index`` is the channel (or
+#: ``None`` for a whole-system effect) and ``ctx`` the diagnosis' read-only effect context
+#: (Coulomb smoothing, gravity torques, axle stiffnesses, ...; see
+#: ``simgap.diagnosis.forms.EffectContext``).
+FitFn = Callable[[np.ndarray, np.ndarray, Mapping[str, np.ndarray], "int | None", Any],
+                 np.ndarray]
+
+
+@dataclass(frozen=True, kw_only=True)
+class FitSpec:
+    """How the diagnosis fits one effect (the fit side of an :class:`EffectSpec`).
+
+    The fit coordinates may differ from the reported parameters (a reparametrisation that
+    makes the contribution linear): the spring is fitted as k·q + c and reported as
+    k·(q − q0); a ratio r is fitted as r − 1. ``to_report`` maps them back.
+
+    Attributes:
+        scope: where the diagnosis tests it: ``"joint"`` / ``"axle"`` (one candidate per
+            channel) or ``"arm"`` / ``"vehicle"`` (all channels at once).
+        lin: linear fit coordinates (the contribution is linear in them).
+        lin_units: their units (templates, see :func:`format_unit`).
+        lin_lower: lower bounds (sign constraints or plausibility limits).
+        lin_upper: upper plausibility limits (``None``: unbounded).
+        nl: nonlinear fit coordinates (fitted around a start grid).
+        nl_units: their units (templates).
+        nl_bounds: (low, high) per nonlinear coordinate.
+        nl_grid: start values per nonlinear coordinate.
+        uses_derivatives: the contribution depends on accelerations (mass-type effects).
+        generalizes: simpler effects this one contains as a special case (same channel).
+        generic: applies to any mechanical model (not only the system declaring it).
+        on_input: the effect changes the input that acts (a delay), not the dynamics: a
+            simulation applies it to the input instead of adding its contribution.
+        fn: the contribution, :data:`FitFn`.
+        to_report: ``to_report(effect, lin, nl, cov, context) -> (params, stderr, units)``;
+            ``None``: the fit coordinates are the reported parameters. ``context`` holds
+            the fitted values of the effects this one ``needs`` on the same channel.
+    """
+
+    scope: Literal["joint", "axle", "arm", "vehicle"]
+    lin: tuple[str, ...] = ()
+    lin_units: tuple[str, ...] = ()
+    lin_lower: tuple[float, ...] = ()
+    lin_upper: tuple[float, ...] | None = None
+    nl: tuple[str, ...] = ()
+    nl_units: tuple[str, ...] = ()
+    nl_bounds: tuple[tuple[float, float], ...] = ()
+    nl_grid: tuple[tuple[float, ...], ...] = ()
+    uses_derivatives: bool = False
+    generalizes: tuple[str, ...] = ()
+    generic: bool = True
+    on_input: bool = False
+    fn: FitFn = field(repr=False)
+    to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None \
+        = field(default=None, repr=False)
+
+
+def on_channel(values: np.ndarray, index: int, n_channels: int) -> np.ndarray:
+    """An (N, n_channels) contribution that is ``values`` on channel ``index``, 0 elsewhere."""
+    out = np.zeros((values.shape[0], n_channels))
+    out[:, index] = values
+    return out
+
+
+def stderr_of(cov: np.ndarray, i: int) -> float:
+    """Standard error of fit coordinate ``i`` from a covariance matrix (negative → 0)."""
+    return float(np.sqrt(max(cov[i, i], 0.0)))
+
+
 @dataclass(frozen=True, kw_only=True)
 class EffectSpec:
     """One effect of a system's vocabulary (see the module docstring).
@@ -68,6 +141,7 @@ class EffectSpec:
             Fc for its breakaway difference).
         vocabulary: ``False`` for effects that exist only to be injected (testing that the
             diagnosis forces nothing into its vocabulary).
+        fit: how the diagnosis fits it (``None``: injectable only, not diagnosable).
     """
 
     name: str
@@ -78,6 +152,7 @@ class EffectSpec:
     all_channels: bool = False
     needs: tuple[str, ...] = ()
     vocabulary: bool = True
+    fit: FitSpec | None = None
 
     def param(self, name: str) -> Param:
         """The parameter called ``name``."""
@@ -119,7 +194,15 @@ class EffectSpec:
 
 
 def format_unit(unit: str, *, effort: str = "N·m", position: str = "rad") -> str:
-    """Fill a :attr:`Param.unit` template for a revolute (N·m, rad) or prismatic (N, m) joint."""
+    """Fill a :attr:`Param.unit` template for a revolute (N·m, rad) or prismatic (N, m) joint.
+
+    ``{inertia}`` (effort per acceleration) reads kg·m² for a revolute and kg for a
+    prismatic joint, ``{effort}·s²/{position}`` otherwise.
+    """
+    if "{inertia}" in unit:
+        inertia = {("N·m", "rad"): "kg·m²", ("N", "m"): "kg"}.get(
+            (effort, position), f"{effort}·s²/{position}")
+        unit = unit.replace("{inertia}", inertia)
     return unit.replace("{effort}", effort).replace("{position}", position)
 
 

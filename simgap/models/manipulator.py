@@ -26,11 +26,14 @@ from simgap.models.base import MechanicalNominalModel, validate_positive
 from simgap.models.effects import (
     EffectInstance,
     EffectSpec,
+    FitSpec,
     Folded,
     Param,
     Plant,
     PlantSchema,
     channel_index,
+    on_channel,
+    stderr_of,
 )
 from simgap.models.friction import FRICTION_FIELDS, FrictionParams, joint_friction
 from simgap.models.integrators import rk4
@@ -46,8 +49,9 @@ INPUT_NAMES = ("tau1", "tau2")
 INPUT_UNITS = ("N·m", "N·m")
 RECORDING_COLUMNS = ("t", "q1", "q2", "dq1", "dq2", "tau1", "tau2")
 N_JOINTS = 2
-#: Per-joint bias/spring fields of :attr:`JointDisturbance.array` (tau0 + k·(q − q0)).
-DISTURBANCE_FIELDS = ("tau0", "k", "q0")
+#: Per-joint bias/spring fields of :attr:`JointDisturbance.array`
+#: (tau0 + k·(q − q0) + k3·q³).
+DISTURBANCE_FIELDS = ("tau0", "k", "q0", "k3")
 #: Layout of the plant array: link parameters, per-joint friction rows, per-joint
 #: bias/spring rows. Every kernel slot below is generated from these names.
 LINK = Slots(*LINK_FIELDS)
@@ -57,7 +61,7 @@ assert LINK.prefix_of(PLANT)
 M1, LC1, I1, M2, LC2, I2, L1, IM1, IM2, G = (LINK[n] for n in LINK_FIELDS)
 FRICTION, FRICTION_STRIDE = PLANT["friction"], PLANT.stride("friction")
 DISTURBANCE, DISTURBANCE_STRIDE = PLANT["disturbance"], PLANT.stride("disturbance")
-TAU0, K, Q0 = (PLANT.field("disturbance", n) for n in DISTURBANCE_FIELDS)
+TAU0, K, Q0, K3 = (PLANT.field("disturbance", n) for n in DISTURBANCE_FIELDS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -110,24 +114,26 @@ class ManipulatorParams:
 
 @dataclass(frozen=True, kw_only=True)
 class JointDisturbance:
-    """Non-friction joint torques a real arm may have: bias and spring (per joint).
+    """Non-friction joint torques a real arm may have: bias and springs (per joint).
 
-    tau = tau0 + k·(q − q0), added to tau_d. Attributes: tau0 (N·m), k (N·m/rad), q0 (rad).
+    tau = tau0 + k·(q − q0) + k3·q³, added to tau_d. Attributes: tau0 (N·m), k (N·m/rad),
+    q0 (rad), k3 (N·m/rad³; > 0 hardening, < 0 softening).
     """
 
     tau0: tuple[float, float] = (0.0, 0.0)
     k: tuple[float, float] = (0.0, 0.0)
     q0: tuple[float, float] = (0.0, 0.0)
+    k3: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
-        for name in ("tau0", "k", "q0"):
+        for name in DISTURBANCE_FIELDS:
             vals = getattr(self, name)
             if len(vals) != 2 or not np.all(np.isfinite(vals)):
                 raise ValueError(f"JointDisturbance.{name} needs two finite values, got {vals!r}")
 
     @cached_property
     def array(self) -> np.ndarray:
-        """Kernel array, shape (2, 3): columns :data:`DISTURBANCE_FIELDS`."""
+        """Kernel array, shape (2, 4): columns :data:`DISTURBANCE_FIELDS`."""
         return np.ascontiguousarray(np.array([getattr(self, n) for n in DISTURBANCE_FIELDS],
                                              dtype=np.float64).T)
 
@@ -212,12 +218,21 @@ def solve2(a, b):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _tau_d_joint(i, qi, dqi, theta):  # pragma: no cover - compiled
-    """Left-out torque at joint i from the plant array (friction row, then bias/spring)."""
+    """Left-out torque at joint i from the plant array (friction row, then bias/springs)."""
     f = FRICTION + FRICTION_STRIDE * i
     d = DISTURBANCE + DISTURBANCE_STRIDE * i
-    return joint_friction(dqi, theta[f + fr.FC], theta[f + fr.SIGMA], theta[f + fr.B],
-                          theta[f + fr.FS], theta[f + fr.VS], theta[f + fr.C2]) \
+    tau = joint_friction(dqi, theta[f + fr.FC], theta[f + fr.SIGMA], theta[f + fr.B],
+                         theta[f + fr.FS], theta[f + fr.VS], theta[f + fr.C2]) \
         + theta[d + TAU0] + theta[d + K] * (qi - theta[d + Q0])
+    if theta[d + K3] != 0.0:
+        tau += cubic_spring(qi, theta[d + K3])
+    return tau
+
+
+@njit(cache=True)
+def cubic_spring(q, k3):  # pragma: no cover - compiled
+    """Cubic (hardening k3 > 0, softening k3 < 0) spring torque k3·q³ (N·m); k3 in N·m/rad³."""
+    return k3 * q * q * q
 
 
 @njit(cache=True)
@@ -427,11 +442,97 @@ _ANY = (-math.inf, math.inf)
 _NONNEG = (0.0, math.inf)
 
 
+# --------------------------------------------------------------------------- fit side
+# Contributions of the vocabulary to the joint residual tau − M ddq − bias = tau_d (N·m or
+# N per joint), used by the diagnosis (``FitSpec.fn``). Friction terms call the plant's own
+# friction functions (their pure-numpy form, ``py_func``: the same expression on arrays);
+# a linear coefficient multiplies the unit-coefficient shape. ``sig``: ``q``, ``dq``,
+# ``ddq`` (N, n) and ``idx`` (rows of the recording); ``ctx``: the diagnosis' EffectContext.
+def _fit_coulomb(lin, nl, sig, j, ctx):
+    dq = sig["dq"][:, j]
+    return on_channel(lin[0] * fr.coulomb.py_func(dq, 1.0, ctx.coulomb_sigma[j]), j,
+                      ctx.n_channels)
+
+
+def _fit_viscous(lin, nl, sig, j, ctx):
+    return on_channel(lin[0] * sig["dq"][:, j], j, ctx.n_channels)
+
+
+def _fit_stribeck(lin, nl, sig, j, ctx):
+    """(Fs − Fc)·exp(−(dq/vs)²)·tanh(dq/σ), fitted as A = Fs − Fc on top of Coulomb's Fc."""
+    dq = sig["dq"][:, j]
+    bump = fr.stribeck.py_func(dq, 1.0, 0.0, nl[0], ctx.coulomb_sigma[j])
+    return on_channel(lin[0] * bump, j, ctx.n_channels)
+
+
+def _fit_quadratic(lin, nl, sig, j, ctx):
+    return on_channel(lin[0] * fr.quadratic.py_func(sig["dq"][:, j], 1.0), j, ctx.n_channels)
+
+
+def _fit_bias(lin, nl, sig, j, ctx):
+    return on_channel(np.full(sig["q"].shape[0], lin[0]), j, ctx.n_channels)
+
+
+def _fit_spring(lin, nl, sig, j, ctx):
+    return on_channel(lin[0] * sig["q"][:, j] + lin[1], j, ctx.n_channels)
+
+
+def _fit_inertia(lin, nl, sig, j, ctx):
+    return on_channel(lin[0] * sig["ddq"][:, j], j, ctx.n_channels)
+
+
+def _fit_cubic(lin, nl, sig, j, ctx):
+    return on_channel(cubic_spring.py_func(sig["q"][:, j], lin[0]), j, ctx.n_channels)
+
+
+def _fit_delay(lin, nl, sig, j, ctx):
+    """Effort change (N·m or N) from the logged input acting ``nl[0]`` seconds late.
+
+    u(t) − u(t − d) of the held input (linear interpolation on the uniform grid).
+    """
+    u = ctx.held_input[:, j]
+    late = np.interp(ctx.t - nl[0], ctx.t, u)
+    return on_channel((u - late)[sig["idx"]], j, ctx.n_channels)
+
+
+def _fit_gravity(lin, nl, sig, j, ctx):
+    return lin[0] * ctx.gravity(sig["q"])
+
+
+def _fit_payload(lin, nl, sig, j, ctx):
+    return lin[0] * ctx.payload_regressor(sig["q"], sig["dq"], sig["ddq"])
+
+
+def _stribeck_report(effect, lin, nl, cov, context):
+    """Fs = Fc + (Fs − Fc): the breakaway torque includes the Coulomb level if one is named."""
+    fc, var_fc, cov_a_fc = context.get("Fc", 0.0), context.get("var_Fc", 0.0), \
+        context.get("cov_A_Fc", 0.0)
+    var_fs = cov[0, 0] + var_fc + 2.0 * cov_a_fc
+    return ({"Fs": float(lin[0] + fc), "vs": float(nl[0])},
+            {"Fs": float(np.sqrt(max(var_fs, 0.0))), "vs": stderr_of(cov, 1)},
+            {"Fs": "{effort}", "vs": "{position}/s"})
+
+
+def _spring_report(effect, lin, nl, cov, context):
+    """Tau = k q + c  →  k (q − q0) with q0 = −c/k (delta method for its stderr)."""
+    k, c = float(lin[0]), float(lin[1])
+    q0 = -c / k if k != 0 else float("nan")
+    grad = np.array([c / k**2, -1.0 / k]) if k != 0 else np.array([np.nan, np.nan])
+    var_q0 = float(grad @ cov[:2, :2] @ grad)
+    return ({"k": k, "q0": q0}, {"k": stderr_of(cov, 0),
+                                 "q0": float(np.sqrt(max(var_q0, 0.0)))},
+            {"k": "{effort}/{position}", "q0": "{position}"})
+
+
+_INF = math.inf
+
+
 def _start(plant: Plant) -> dict:
     p = plant.params
     return {"fc": [0.0, 0.0], "b": [0.0, 0.0], "fs": [None, None], "vs": [0.05, 0.05],
             "c2": [0.0, 0.0],
-            "tau0": [0.0, 0.0], "k": [0.0, 0.0], "q0": [0.0, 0.0],
+            "tau0": [0.0, 0.0], "k": [0.0, 0.0], "q0": [0.0, 0.0], "k3": [0.0, 0.0],
+            "input_delay": [0.0, 0.0],
             "payload": p.payload, "extra": list(p.extra_inertia), "g": p.g}
 
 
@@ -453,6 +554,11 @@ def _spring(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
     acc["k"][j], acc["q0"][j] = v["k"], v["q0"]
 
 
+def _delay(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
+    for i in (0, 1) if j is None else (j,):
+        acc["input_delay"][i] = v["delay"]
+
+
 def _payload(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
     acc["payload"] = v["mp"]
 
@@ -465,40 +571,79 @@ def _gravity(acc: dict, j: int | None, v: Mapping[str, float]) -> None:
 VOCABULARY = (
     EffectSpec(name="coulomb_friction", label="Coulomb friction", scope="channel",
                params=(Param(name="Fc", unit="{effort}", bounds=_NONNEG, inject=(0.05, 0.3)),),
-               write=_set("fc", "Fc")),
+               write=_set("fc", "Fc"),
+               fit=FitSpec(scope="joint", lin=("Fc",), lin_units=("{effort}",), lin_lower=(0.0,),
+                           fn=_fit_coulomb)),
     EffectSpec(name="viscous_friction", label="viscous friction", scope="channel",
                params=(Param(name="b", unit="{effort}·s/{position}", bounds=_NONNEG,
                              inject=(0.05, 0.5)),),
-               write=_set("b", "b")),
+               write=_set("b", "b"),
+               fit=FitSpec(scope="joint", lin=("b",), lin_units=("{effort}·s/{position}",),
+                           lin_lower=(0.0,), fn=_fit_viscous)),
     EffectSpec(name="stribeck_friction", label="Stribeck friction", scope="channel",
                params=(Param(name="Fs", unit="{effort}", bounds=_NONNEG, inject=(0.2, 0.4)),
                        Param(name="vs", unit="{position}/s", bounds=(1e-9, math.inf),
                              inject=(0.07, 0.3))),
-               write=_stribeck, needs=("coulomb_friction",)),
+               write=_stribeck, needs=("coulomb_friction",),
+               fit=FitSpec(scope="joint", lin=("Fs",), lin_units=("{effort}",), lin_lower=(0.0,),
+                           nl=("vs",), nl_units=("{position}/s",), nl_bounds=((1e-3, 2.0),),
+                           nl_grid=((0.01, 0.03, 0.1, 0.3),),
+                           generalizes=("coulomb_friction",), fn=_fit_stribeck,
+                           to_report=_stribeck_report)),
     EffectSpec(name="quadratic_drag", label="quadratic drag", scope="channel",
                params=(Param(name="c", unit="{effort}·s²/{position}²", bounds=_NONNEG,
                              inject=(0.01, 0.1)),),
-               write=_set("c2", "c")),
+               write=_set("c2", "c"),
+               fit=FitSpec(scope="joint", lin=("c",), lin_units=("{effort}·s²/{position}²",),
+                           lin_lower=(0.0,), fn=_fit_quadratic)),
     EffectSpec(name="torque_bias", label="torque bias", scope="channel",
                params=(Param(name="tau0", unit="{effort}", bounds=_ANY, inject=(0.05, 0.3),
                              signed=True),),
-               write=_bias),
+               write=_bias,
+               fit=FitSpec(scope="joint", lin=("tau0",), lin_units=("{effort}",),
+                           lin_lower=(-_INF,), fn=_fit_bias)),
     EffectSpec(name="spring", label="spring", scope="channel",
                params=(Param(name="k", unit="{effort}/{position}", bounds=_ANY,
                              inject=(0.5, 3.0)),
                        Param(name="q0", unit="{position}", bounds=_ANY, inject=(-0.5, 0.5),
                              default=0.0)),
-               write=_spring),
+               write=_spring,
+               fit=FitSpec(scope="joint", lin=("k", "c"),
+                           lin_units=("{effort}/{position}", "{effort}"),
+                           lin_lower=(-_INF, -_INF), generalizes=("torque_bias",),
+                           fn=_fit_spring, to_report=_spring_report)),
     EffectSpec(name="payload_mass", label="payload mass", scope="system",
                params=(Param(name="mp", unit="kg", bounds=_NONNEG, inject=(0.1, 0.5)),),
-               write=_payload),
+               write=_payload,
+               fit=FitSpec(scope="arm", lin=("mp",), lin_units=("kg",), lin_lower=(0.0,),
+                           lin_upper=(10.0,), uses_derivatives=True, generic=False,
+                           fn=_fit_payload)),
     EffectSpec(name="gravity_mismatch", label="gravity mismatch", scope="system",
                params=(Param(name="dG", unit="-", bounds=(-1.0, math.inf), inject=(0.02, 0.1),
                              signed=True),),
-               write=_gravity),
+               write=_gravity,
+               fit=FitSpec(scope="arm", lin=("dG",), lin_units=("-",), lin_lower=(-0.5,),
+                           lin_upper=(0.5,), fn=_fit_gravity)),
     EffectSpec(name="inertia_mismatch", label="extra inertia", scope="channel",
-               params=(Param(name="dI", unit="kg·m²", bounds=_NONNEG, inject=(0.015, 0.04)),),
-               write=_set("extra", "dI")),
+               params=(Param(name="dI", unit="{inertia}", bounds=_NONNEG,
+                             inject=(0.015, 0.04)),),
+               write=_set("extra", "dI"),
+               fit=FitSpec(scope="joint", lin=("dI",), lin_units=("{inertia}",),
+                           lin_lower=(0.0,), lin_upper=(0.5,), uses_derivatives=True,
+                           fn=_fit_inertia)),
+    EffectSpec(name="cubic_stiffness", label="cubic stiffness", scope="channel",
+               params=(Param(name="k3", unit="{effort}/{position}³", bounds=_ANY,
+                             inject=(0.15, 0.5), signed=True),),
+               write=_set("k3", "k3"),
+               fit=FitSpec(scope="joint", lin=("k3",), lin_units=("{effort}/{position}³",),
+                           lin_lower=(-_INF,), fn=_fit_cubic)),
+    EffectSpec(name="input_delay", label="actuator delay", scope="channel", all_channels=True,
+               params=(Param(name="delay", unit="s", bounds=(0.0, 0.1),
+                             inject=(0.006, 0.02)),),
+               write=_delay,
+               fit=FitSpec(scope="joint", nl=("delay",), nl_units=("s",),
+                           nl_bounds=((1e-4, 0.1),), nl_grid=((0.002, 0.005, 0.01, 0.02, 0.05),),
+                           on_input=True, fn=_fit_delay)),
 )
 
 
@@ -516,14 +661,15 @@ def _fold(plant: Plant) -> Folded:
     friction = FrictionParams(fc=tuple(acc["fc"]), b=tuple(acc["b"]), fs=fs,
                               vs=tuple(acc["vs"]), sigma=sig, c2=tuple(acc["c2"]))
     disturbance = JointDisturbance(tau0=tuple(acc["tau0"]), k=tuple(acc["k"]),
-                                   q0=tuple(acc["q0"]))
+                                   q0=tuple(acc["q0"]), k3=tuple(acc["k3"]))
     params = p
     if (acc["g"], acc["payload"], tuple(acc["extra"])) != (p.g, p.payload,
                                                            tuple(p.extra_inertia)):
         params = replace(p, g=acc["g"], payload=acc["payload"],
                          extra_inertia=tuple(acc["extra"]))
     return Folded(params, plant_array(params, friction, disturbance),
-                  {"friction": friction, "disturbance": disturbance})
+                  {"friction": friction, "disturbance": disturbance,
+                   "input_delay": tuple(acc["input_delay"])})
 
 
 #: The arm's plant declaration; ``PLANT_SCHEMA.plant(params, effects)`` makes a Plant.
@@ -567,6 +713,8 @@ def disturbance_effects(disturbance: JointDisturbance | None) -> tuple[EffectIns
         if disturbance.k[j] != 0.0 or disturbance.q0[j] != 0.0:
             out.append(EffectInstance("spring", ch, {"k": float(disturbance.k[j]),
                                                      "q0": float(disturbance.q0[j])}))
+        if disturbance.k3[j] != 0.0:
+            out.append(EffectInstance("cubic_stiffness", ch, {"k3": float(disturbance.k3[j])}))
     return tuple(out)
 
 
