@@ -159,7 +159,8 @@ class AugmentedManipulator(man.ManipulatorNominal):
                                 for f in dataclasses.fields(self.base_params)},
                 "effects": self.effects,
                 "options": {"coulomb_sigma": list(np.broadcast_to(self.sigma, 2).astype(float)),
-                            "dt": self.dt}}
+                            "dt": self.dt},
+                "plant": self.plant.to_dict()}
 
 
 def bicycle_physics(effects: Sequence[Mapping[str, Any]], base: BicycleParams | None = None
@@ -241,7 +242,8 @@ class AugmentedBicycle(BicycleNominal):
         return {"schema": 1, "model": "bicycle",
                 "base_params": {f.name: getattr(self.base_params, f.name)
                                 for f in dataclasses.fields(self.base_params)},
-                "effects": self.effects, "options": {"vx": self.vx, "dt": self.dt}}
+                "effects": self.effects, "options": {"vx": self.vx, "dt": self.dt},
+                "plant": self.plant.to_dict()}
 
 
 class AugmentedMechanical(MechanicalNominalModel):
@@ -317,7 +319,14 @@ def save_model(model: AugmentedManipulator | AugmentedBicycle, path: str | os.Pa
 
 
 def model_from_dict(d: Mapping[str, Any]) -> AugmentedManipulator | AugmentedBicycle:
-    """Rebuild an augmented model from its JSON description."""
+    """Rebuild an augmented model from its JSON description.
+
+    The description holds the augmented :class:`~simgap.models.effects.Plant`
+    (``"plant"``: ``Plant.to_dict()``) beside the report's effects; files written before
+    it (no ``"plant"``) are read from ``base_params``, ``effects`` and ``options``.
+    """
+    if "plant" in d:
+        return _from_plant(d)
     try:
         kind, effects, opts = d["model"], d.get("effects", []), d.get("options", {})
         if kind == "manipulator2dof":
@@ -332,6 +341,30 @@ def model_from_dict(d: Mapping[str, Any]) -> AugmentedManipulator | AugmentedBic
     except (KeyError, TypeError) as err:
         raise ModelFileError(f"augmented model description is incomplete: {err}") from None
     raise ModelFileError(f"unknown model {d.get('model')!r} in augmented model description")
+
+
+def _from_plant(d: Mapping[str, Any]) -> AugmentedManipulator | AugmentedBicycle:
+    """An augmented model from the ``"plant"`` of its description (plus ``dt``)."""
+    from simgap.systems import get_system
+
+    pd = d["plant"]
+    spec = get_system(str(pd.get("system", d.get("model"))), ModelFileError)
+    if spec.plant_schema is None:
+        raise ModelFileError(f"augmented model: system {spec.name!r} has no plant")
+    try:
+        plant = Plant.from_dict(pd, spec.plant_schema)
+    except ModelError as err:
+        raise ModelFileError(f"augmented model: {err}") from None
+    effects = [e.to_dict() for e in plant.effects]
+    dt = d.get("options", {}).get("dt")
+    if plant.system == "manipulator2dof":
+        return AugmentedManipulator(effects, plant.params, plant.options["coulomb_sigma"],
+                                    dt=dt or 0.002)
+    if plant.system == "bicycle":
+        o = plant.options
+        return AugmentedBicycle(effects, plant.params, vx=o["vx"], dt=dt or 0.01,
+                                tire=MagicFormulaTire(C=o["mf_C"], E=o["mf_E"]))
+    raise ModelFileError(f"augmented model: no augmented model class for {plant.system!r}")
 
 
 def load_model(path: str | os.PathLike) -> AugmentedManipulator | AugmentedBicycle:

@@ -69,6 +69,10 @@ class Effect:
             include (Stribeck's breakaway Fs includes Coulomb's Fc).
         on_input: the effect delays the input instead of adding to the dynamics (a
             simulation applies it to the input).
+        corrects: ``(coordinate, nominal coefficient)`` pairs (see
+            :attr:`~simgap.models.effects.FitSpec.corrects`).
+        nominal: the nominal's value of each corrected coordinate on the tested channel
+            (set by :meth:`with_nominal`; empty: the nominal has no such term).
         fn: the model, ``fn(lin, nl, sig, index, ctx) -> (N, n_channels)``.
         to_report: maps internal parameters to the reported ones (see
             :func:`identity_report`); its units are templates filled by ``unit``.
@@ -91,6 +95,8 @@ class Effect:
     generalizes: tuple[str, ...] = ()
     needs: tuple[str, ...] = ()
     on_input: bool = False
+    corrects: tuple[tuple[str, str], ...] = ()
+    nominal: Mapping[str, float] = field(default_factory=dict)
     fn: EffectFn = field(repr=False)
     to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None = \
         field(default=None, repr=False)
@@ -111,7 +117,7 @@ class Effect:
                   nl=fit.nl, nl_units=fit.nl_units, nl_bounds=fit.nl_bounds,
                   nl_grid=fit.nl_grid, uses_derivatives=fit.uses_derivatives,
                   generalizes=fit.generalizes, needs=spec.needs, on_input=fit.on_input,
-                  fn=fit.fn,
+                  corrects=fit.corrects, fn=fit.fn,
                   to_report=fit.to_report)
         return out.in_units(effort=effort, position=position, templates=fit)
 
@@ -127,6 +133,33 @@ class Effect:
             return format_unit(u, effort=effort, position=position)
         return replace(self, lin_units=tuple(unit(u) for u in fit.lin_units),
                        nl_units=tuple(unit(u) for u in fit.nl_units), unit=unit)
+
+    def with_nominal(self, coefficients: Mapping[str, Any], index: int) -> Effect:
+        """The effect as a signed correction of the nominal's own terms on channel ``index``.
+
+        Args:
+            coefficients: the nominal model's per-channel coefficients by name (its
+                ``nominal_coefficients()``, e.g. ``{"damping": (0.4, 0.0)}``).
+            index: the channel.
+
+        Returns:
+            The effect with each corrected coordinate's lower bound lowered to −(nominal
+            value) where the nominal holds a positive value, and :attr:`nominal` set.
+        """
+        lower = list(self.lin_lower)
+        nominal: dict[str, float] = {}
+        for coord, coef in self.corrects:
+            values = coefficients.get(coef)
+            if values is None or coord not in self.lin:
+                continue
+            value = float(values[index])
+            if value > 0:
+                k = self.lin.index(coord)
+                lower[k] = min(lower[k], -value)
+                nominal[coord] = value
+        if not nominal:
+            return self
+        return replace(self, lin_lower=tuple(lower), nominal=nominal)
 
     @property
     def upper(self) -> tuple[float, ...]:
@@ -174,12 +207,13 @@ VOCABULARY_SPECS: dict[str, EffectSpec] = {
     s.name: s for s in man.VOCABULARY + bic.VOCABULARY if s.fit is not None and s.vocabulary}
 #: Effects of any mechanical model (per joint, then whole arm).
 MECHANICAL_EFFECTS: tuple[Effect, ...] = _diagnosable(man.VOCABULARY, generic=True)
-#: The two-link arm's own effect (payload at the tip of link 2).
-PAYLOAD: Effect = Effect.of(man.PLANT_SCHEMA.effect("payload_mass"))
+#: The two-link arm's own effects (payload at the tip of link 2, cubic stiffness).
+ARM_EFFECTS: tuple[Effect, ...] = _diagnosable(man.VOCABULARY, generic=False)
+PAYLOAD: Effect = next(e for e in ARM_EFFECTS if e.name == "payload_mass")
 #: The vehicle's effects (per axle, then whole vehicle).
 BICYCLE_EFFECTS: tuple[Effect, ...] = _diagnosable(bic.VOCABULARY)
 
-VOCABULARY: dict[str, Effect] = {e.name: e for e in MECHANICAL_EFFECTS + (PAYLOAD,)
+VOCABULARY: dict[str, Effect] = {e.name: e for e in MECHANICAL_EFFECTS + ARM_EFFECTS
                                  + BICYCLE_EFFECTS}
 #: Kept for one release: the axle signal keys now live with the vehicle's fit side.
 AXLE_KEYS = bic.AXLE_KEYS
@@ -208,6 +242,28 @@ def needs_context(effect: Effect, index: int | None, fitted: Mapping[tuple[str, 
         value, var, cov = fitted[(need, index)]
         ctx.update({name: value, f"var_{name}": var, f"cov_A_{name}": cov})
     return ctx
+
+
+def nominal_corrections(effect: Effect, params: Mapping[str, float]) -> dict[str, dict]:
+    """What a fitted correction does to the nominal's own coefficients (for the report).
+
+    Returns:
+        ``{coordinate: {"coefficient", "nominal", "corrected", "relative", "text"}}`` for
+        each coordinate the effect corrects on a nominal that holds it; ``relative`` is the
+        change over the nominal value: corrected = nominal·(1 + relative).
+    """
+    out: dict[str, dict] = {}
+    names = dict(effect.corrects)
+    for coord, nominal in effect.nominal.items():
+        if coord not in params:
+            continue
+        corrected = nominal + float(params[coord])
+        rel = float(params[coord]) / nominal
+        out[coord] = {"coefficient": names[coord], "nominal": nominal, "corrected": corrected,
+                      "relative": rel,
+                      "text": f" (the nominal {names[coord]} {nominal:.4g} → {corrected:.4g}, "
+                              f"{100 * rel:+.0f} %)"}
+    return out
 
 
 def report_params(effect: Effect, lin: np.ndarray, nl: np.ndarray, cov: np.ndarray,

@@ -292,7 +292,10 @@ class Fitter:
             e = t.effect
             bounds = list(zip(e.lin_lower, e.upper, strict=True)) + list(e.nl_bounds)
             for v, (lo, hi) in zip(np.concatenate([lin, nl]), bounds, strict=True):
-                span = (hi - lo) if np.isfinite(hi - lo) else max(abs(lo), abs(hi), 1.0)
+                # a one-sided bound (a signed correction down to −nominal, no upper limit)
+                # gets its tolerance from the finite bound's size, not from infinity
+                span = (hi - lo) if np.isfinite(hi - lo) else \
+                    max([abs(x) for x in (lo, hi) if np.isfinite(x)] + [1.0])
                 tol = 1e-3 * span
                 if (np.isfinite(lo) and lo != 0.0 and v <= lo + tol) or \
                         (np.isfinite(hi) and v >= hi - tol):

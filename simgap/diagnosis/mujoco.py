@@ -64,7 +64,8 @@ class MujocoEffectContext(EffectContext):
     payload_at: Callable[[tuple, Mapping[str, np.ndarray]], np.ndarray]
 
 
-#: The vocabulary's input delay (one per joint), tested for every mechanical model now.
+#: The vocabulary's input delay (one per joint; its fit side lives with the arm's
+#: vocabulary entry in simgap.models.manipulator).
 INPUT_DELAY = VOCABULARY["input_delay"]
 
 
@@ -92,9 +93,10 @@ class MujocoSystem(ModelMechanicalSystem):
         self._payload_cache: dict[tuple, np.ndarray] = {}
 
     def candidates(self) -> list[tuple[Effect, int | None, str]]:
-        """Joint vocabulary (model units, input delay included), payload per tip point."""
+        """Joint vocabulary (model units), payload per tip point, input delay per joint."""
         out = super().candidates()
         out += [(e, None, "arm") for e in self.payload_effects]
+        out += [(INPUT_DELAY, j, self.channels[j]) for j in range(self.n_channels)]
         return out
 
     def prepare(self, rec):

@@ -40,7 +40,7 @@ from simgap import plausibility
 from simgap.diagnosis import locate
 from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, AugmentedMechanical
 from simgap.diagnosis.compare import Comparison, compare
-from simgap.diagnosis.effects import needs_context, report_params
+from simgap.diagnosis.effects import needs_context, nominal_corrections, report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
 from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
@@ -287,11 +287,14 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
             "the vehicle" if term.effect.scope == "vehicle" else _channel_label(channel))
         text = (f"{term.effect.label[0].upper()}{term.effect.label[1:]} at {where}, "
                 f"{', '.join(parts)}")
+        corrections = nominal_corrections(term.effect, params)
+        text += "".join(c["text"] for c in corrections.values())
         entries.append({"effect": term.effect.name, "channel": channel,
                         "parameters": {k: float(v) for k, v in params.items()},
                         "stderr": {k: float(v) for k, v in se.items()},
                         "units": units,
                         "explained_fraction": round(min(1.0, max(0.0, frac)), 4),
+                        **({"nominal_correction": corrections} if corrections else {}),
                         "text": text,
                         "summary": f"{text}, explains {100 * min(1.0, max(0.0, frac)):.0f} % "
                                    f"of the residual "

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 from scipy.signal import lfilter
 
-from simgap.diagnosis.effects import BICYCLE_EFFECTS, MECHANICAL_EFFECTS, PAYLOAD, Effect
+from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
 from simgap.diagnosis.forms import EffectContext
 from simgap.diagnosis.residual import (
     ResidualResult,
@@ -204,8 +204,10 @@ class MechanicalSystem:
                 out += [(e, j, self.channels[j]) for j in range(self.n_channels)]
             else:
                 out.append((e, None, "arm"))
-        if self.is_manipulator:
-            out.append((PAYLOAD, None, "arm"))
+        if self.is_manipulator:  # the arm's own effects (payload, cubic stiffness)
+            for e in ARM_EFFECTS:
+                out += [(e, j, self.channels[j]) for j in range(self.n_channels)] \
+                    if e.scope == "joint" else [(e, None, "arm")]
         return out
 
     # -- signals and residual ----------------------------------------------------------
@@ -630,7 +632,11 @@ class ModelMechanicalSystem(MechanicalSystem):
       term with vs near the top speed only reshapes Coulomb + viscous friction (on the EMPS
       data it then displaces the Coulomb term; see ``tests/diagnosis/test_real_emps.py``);
     * whole-arm ``gravity_mismatch`` is not tested when the model has no gravity torque on
-      the recorded positions.
+      the recorded positions;
+    * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
+      ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
+      them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
+      nominal value): "the nominal damping is 15 % too high" is an answer.
 
     Args:
         model: the nominal model.
@@ -660,12 +666,16 @@ class ModelMechanicalSystem(MechanicalSystem):
         out = []
         vmax = np.max(np.abs(self.sig["dq"]), axis=0)
         gravity = np.abs(self.gravity(self.sig["q"])).max() if self.sig["q"].size else 0.0
+        own = getattr(self.model, "nominal_coefficients", None)
+        coefficients = own() if callable(own) else {}
         for effect, j, channel in super().candidates():
             if effect.name == "gravity_mismatch" and gravity == 0.0:
                 continue
             k = 0 if j is None else j
             effect = effect.in_units(effort=self.channel_units[k],
                                      position=self.position_units[k])
+            if j is not None and coefficients:  # signed corrections of the nominal's terms
+                effect = effect.with_nominal(coefficients, j)
             changes: dict[str, Any] = {}
             if effect.name == "stribeck_friction" and j is not None:
                 hi = max(STRIBECK_MAX_SHARE * float(vmax[j]), 2e-3)

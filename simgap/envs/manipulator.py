@@ -196,6 +196,11 @@ class ManipulatorFrictionEnv(PlantEnv):
         ref = np.asarray(self._ref_sample(self.t), dtype=np.float64)
         return self._renderer.draw(self._s[:2], ref[:2], self.t, self._last_u)
 
+    def _check_plant(self, plant: Plant) -> None:
+        if plant.has("input_delay"):
+            raise EnvError("the env does not simulate an input_delay (a transport delay of "
+                           "the command); simgap record / diagnosis.generate does")
+
     @property
     def friction(self) -> FrictionParams:
         """The plant's joint friction (read-only view of :attr:`plant`)."""

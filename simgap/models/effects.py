@@ -87,6 +87,10 @@ class FitSpec:
         generic: applies to any mechanical model (not only the system declaring it).
         on_input: the effect changes the input that acts (a delay), not the dynamics: a
             simulation applies it to the input instead of adding its contribution.
+        corrects: ``(coordinate, nominal coefficient)`` pairs: where the nominal model
+            already holds this term (its own ``damping`` for viscous b), the coordinate is a
+            signed correction of it, bounded below by −(the nominal's value) instead of by
+            ``lin_lower``: "the nominal damping is 15 % too high" is b = −0.15·damping.
         fn: the contribution, :data:`FitFn`.
         to_report: ``to_report(effect, lin, nl, cov, context) -> (params, stderr, units)``;
             ``None``: the fit coordinates are the reported parameters. ``context`` holds
@@ -106,6 +110,7 @@ class FitSpec:
     generalizes: tuple[str, ...] = ()
     generic: bool = True
     on_input: bool = False
+    corrects: tuple[tuple[str, str], ...] = ()
     fn: FitFn = field(repr=False)
     to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None \
         = field(default=None, repr=False)

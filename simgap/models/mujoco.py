@@ -192,6 +192,17 @@ class MujocoNominal(MechanicalNominalModel):
                 out[hit[0], a] = m.actuator_gear[a, 0] * m.actuator_gainprm[a, 0]
         return out
 
+    def nominal_coefficients(self) -> dict[str, tuple[float, ...]]:
+        """The model's own per-joint passive terms, which a diagnosis may correct either way.
+
+        ``damping`` (N·m·s/rad or N·s/m), ``frictionloss`` (N·m or N), ``stiffness`` (N·m/rad
+        or N/m) of each modelled joint.
+        """
+        m = self.mj_model
+        return {"damping": tuple(float(v) for v in m.dof_damping[self.dof]),
+                "frictionloss": tuple(float(v) for v in self.frictionloss),
+                "stiffness": tuple(float(v) for v in m.jnt_stiffness[self.joint_ids])}
+
     def __repr__(self) -> str:
         return (f"MujocoNominal(name={self.name!r}, joints={self.joint_names}, "
                 f"inputs={self.inputs!r}, dt={self.dt})")
