@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from simgap.diagnosis import validation
 from simgap.diagnosis.effects import Effect
 from simgap.diagnosis.fit import Fitter, Term
 from simgap.diagnosis.residual import Smoother
@@ -48,6 +47,8 @@ def test_split_uses_usable_rows_and_interleaves_validation():
     """A decaying log whose late part is masked: the split is on usable rows (main: 70 % of
     the time, which left a test part with nothing to test), validation blocks are spread
     over the fit part, and no row sits within a filter window of a gap."""
+    from simgap.diagnosis import validation
+
     t = np.arange(N) * DT
     mask = np.ones((N, 1))
     mask[int(0.6 * N):] = 0.0                    # the decay has stopped: all masked
@@ -104,7 +105,7 @@ def test_cannot_test_when_the_held_out_part_holds_no_information():
     fitter = Fitter(sysm, r, np.array([0.1]))
     on = np.zeros(N, dtype=bool)
     on[fitter.train] = True
-    for b in np.unique(fitter.split.valid_block):       # keep a window away from them
+    for b in np.unique(fitter.split.valid_block):  # keep a window away from them
         rows = fitter.valid[fitter.split.valid_block == b]
         on[rows.min() - 10:rows.max() + 10] = False
     reg[on] = 1.0
