@@ -19,7 +19,11 @@ of many is picked on the same data), when the validation part holds information 
 parameter sits on a plausibility limit. Among candidates the largest per-channel share of
 the held-out loss removed wins (every channel counts by its own remaining error, so
 one large channel or a sum over both axles does not decide); within :data:`TIE` of it the
-term with fewer parameters wins (Coulomb before Stribeck, bias before spring). Effect sizes
+hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring). Besides
+single terms, each :data:`FAMILIES` (friction: Coulomb and viscous) is tried as one joint
+hypothesis at each channel, so that corrections that only make sense together (a nominal
+damping that is too high, a signed viscous correction, beside a missing Coulomb friction)
+can be found even when neither alone gains. Effect sizes
 are reported, never gated on. A backward pass drops any chosen term whose removal the same
 test does not reject (a later term explained it better).
 
@@ -72,6 +76,8 @@ TRAIN_FRACTION = 0.7
 FLIP_Z = 3.0
 #: An operating rate counts as taking both signs when each holds this share of the rows.
 FLIP_SIDE_SHARE = 0.1
+#: Effects fitted together as one hypothesis as well as alone (same channel).
+FAMILIES = (("coulomb_friction", "viscous_friction"),)
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
 
 
@@ -383,7 +389,8 @@ class Fitter:
             e = t.effect
             bounds = list(zip(e.lin_lower, e.upper, strict=True)) + list(e.nl_bounds)
             for v, (lo, hi) in zip(np.concatenate([lin, nl]), bounds, strict=True):
-                span = (hi - lo) if np.isfinite(hi - lo) else max(abs(lo), abs(hi), 1.0)
+                finite = [abs(b) for b in (lo, hi) if np.isfinite(b)]
+                span = (hi - lo) if np.isfinite(hi - lo) else max(finite + [1.0])
                 tol = 1e-3 * span
                 if (np.isfinite(lo) and lo != 0.0 and v <= lo + tol) or \
                         (np.isfinite(hi) and v >= hi - tol):
@@ -391,18 +398,22 @@ class Fitter:
                     break
         return out
 
-    def fit_new(self, chosen: FitResult, term: Term) -> FitResult:
-        """Fit ``chosen`` plus one new term, starting the new nonlinear ones on a grid."""
+    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term]) -> FitResult:
+        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid."""
+        new = [term] if isinstance(term, Term) else list(term)
         starts = [np.asarray(v) for v in chosen.nl]
-        if not term.effect.nl:
-            return self.fit(chosen.terms + [term], starts + [np.zeros(0)])
-        grid = np.array(np.meshgrid(*term.effect.nl_grid)).reshape(len(term.effect.nl), -1).T
-        terms = chosen.terms + [term]
+        terms = chosen.terms + new
+        if not any(t.effect.nl for t in new):
+            return self.fit(terms, starts + [np.zeros(0)] * len(new))
+        grids = [g for t in new for g in t.effect.nl_grid]
+        sizes = [len(t.effect.nl) for t in new]
+        grid = np.array(np.meshgrid(*grids)).reshape(len(grids), -1).T
         lower, upper = self._lin_bounds(terms)
         y = self._y(self.train)
         best, best_sse = None, np.inf
         for g in grid:
-            x, off = self._design(terms, starts + [g], self.train)
+            parts = np.split(g, np.cumsum(sizes)[:-1])
+            x, off = self._design(terms, starts + parts, self.train)
             if x.shape[1]:
                 sol = lsq_linear(x, y - off, bounds=(lower, upper))
                 r = y - off - x @ sol.x
@@ -410,8 +421,8 @@ class Fitter:
                 r = y - off
             sse = float(r @ r)
             if sse < best_sse:
-                best, best_sse = g, sse
-        return self.fit(terms, starts + [best])
+                best, best_sse = parts, sse
+        return self.fit(terms, starts + best)
 
     # -- testing -----------------------------------------------------------------------
     def _errors(self, fit: FitResult, rows: np.ndarray) -> np.ndarray:
@@ -425,22 +436,29 @@ class Fitter:
         reg = np.concatenate([cols, off[:, :, None]], axis=2) if np.any(off) else cols
         return validation.information_share(reg, held_out, train)
 
-    def evaluate(self, base: FitResult, term: Term, fit: FitResult) -> dict[str, Any]:
-        """Test ``fit`` (``base`` plus ``term``) against ``base`` on the validation blocks."""
-        entry = {"effect": term.effect.name, "channel": term.channel,
-                 "params": _params(fit, len(fit.terms) - 1), "gain": 0.0,
+    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult
+                 ) -> dict[str, Any]:
+        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation)."""
+        k = len(hyp)
+        params: dict[str, float] = {}
+        for i in range(len(fit.terms) - k, len(fit.terms)):
+            params.update(_params(fit, i) if k == 1 else
+                          {f"{fit.terms[i].effect.name}.{n}": v
+                           for n, v in _params(fit, i).items()})
+        entry = {"effect": "+".join(t.effect.name for t in hyp), "channel": hyp[0].channel,
+                 "params": params, "gain": 0.0,
                  "test": TEST_NAME, "statistic": float("nan"), "p_value": float("nan"),
-                 "decision": "rejected", "reason": "", "_testable": False, "_term": term}
-        info = self.information(term, fit.nl[-1], self.valid, self.train)
-        if info < validation.NO_INFORMATION:
-            entry.update(decision="cannot test",
-                         reason=f"cannot test: the held-out part holds no information about "
-                                f"{term.effect.label} at {term.channel} (its regressor is "
-                                "zero there)")
-            return entry
+                 "decision": "rejected", "reason": "", "_testable": False, "_hyp": hyp}
+        for t, nl in zip(hyp, fit.nl[-k:], strict=True):
+            if self.information(t, nl, self.valid, self.train) < validation.NO_INFORMATION:
+                entry.update(decision="cannot test",
+                             reason=f"cannot test: the held-out part holds no information "
+                                    f"about {t.effect.label} at {t.channel} (its regressor "
+                                    "is zero there)")
+                return entry
         limit = self.at_limit(fit)
         g = likelihood_ratio(self._errors(base, self.valid), self._errors(fit, self.valid),
-                             term.effect.n_params)
+                             sum(t.effect.n_params for t in hyp))
         entry.update(gain=g.share_removed, statistic=g.statistic, p_value=g.p_value)
         if not g.testable:
             entry.update(decision="cannot test", reason=f"cannot test: {g.reason}")
@@ -451,6 +469,23 @@ class Fitter:
             entry["_testable"] = True
         return entry
 
+    @staticmethod
+    def hypotheses(remaining: Sequence[Term]) -> list[tuple[Term, ...]]:
+        """Every remaining term alone, plus each :data:`FAMILIES` remaining at one channel.
+
+        A family's members are fitted together: they may only make sense jointly, e.g. a
+        nominal damping that is too high beside a missing Coulomb friction.
+        """
+        hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
+        by_key = {t.key: t for t in remaining}
+        for fam in FAMILIES:
+            for idx in sorted({t.index for t in remaining if t.effect.name == fam[0]},
+                              key=lambda i: -1 if i is None else i):
+                members = [by_key.get((name, idx)) for name in fam]
+                if all(m is not None for m in members):
+                    hyps.append(tuple(members))
+        return hyps
+
     # -- selection ---------------------------------------------------------------------
     def select(self, candidates: Sequence[Term]) -> Selection:
         """Forward selection by held-out tests (see the module docstring)."""
@@ -459,45 +494,54 @@ class Fitter:
         remaining = list(candidates)
         tried: dict[tuple, dict[str, Any]] = {}
         while remaining and len(current.terms) < MAX_EFFECTS:
-            trials = [(t, self.fit_new(current, t)) for t in remaining]
-            evals = [self.evaluate(current, t, f) for t, f in trials]
+            hyps = self.hypotheses(remaining)
+            trials = [(h, self.fit_new(current, h)) for h in hyps]
+            evals = [self.evaluate(current, h, f) for h, f in trials]
             testable = [e for e in evals if e["_testable"]]
             alpha = ALPHA / max(len(testable), 1)
             for e in evals:
                 if e["_testable"]:
                     e["reason"] = (f"held-out gain not significant (p = {e['p_value']:.2g} ≥ "
                                    f"{alpha:.2g}, the level {ALPHA} shared by "
-                                   f"{len(testable)} terms tried)")
-                tried[e["_term"].key] = e
+                                   f"{len(testable)} hypotheses tried)")
+                tried[tuple(t.key for t in e["_hyp"])] = e
             ok = [i for i, e in enumerate(evals)
                   if e["_testable"] and e["p_value"] < alpha and e["gain"] > 0]
             gains = np.array([e["gain"] if e["_testable"] else -np.inf for e in evals])
             sel.history.append({"runner_up": sorted(
-                ((e["_term"].label, float(e["gain"])) for e in evals if e["_testable"]),
-                key=lambda x: -x[1])[:4]})
+                ((e["effect"] + "@" + e["channel"], float(e["gain"]))
+                 for e in evals if e["_testable"]), key=lambda x: -x[1])[:4]})
             if not ok:
                 sel.history[-1].update(accepted=False)
                 break
             best = max(gains[i] for i in ok)
             near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
-            pick = min(near, key=lambda i: (trials[i][0].effect.n_params, -gains[i]))
-            term, fit = trials[pick]
+            pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
+                                            -gains[i]))
+            hyp, fit = trials[pick]
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
-            sel.history[-1].update(term=term.label, gain=float(gains[pick]),
-                                   p_value=e["p_value"], accepted=True)
-            self._aliases(sel, term, fit, trials, gains, float(gains[pick]))
+            if len(hyp) > 1:   # a family: each member is named (and pruned) on its own
+                del tried[tuple(t.key for t in hyp)]
+                for t in hyp:
+                    tried[(t.key,)] = dict(e, effect=t.effect.name, _hyp=(t,), reason=(
+                        f"named with {'+'.join(m.effect.name for m in hyp)} fitted together: "
+                        f"{e['reason']}"))
+            sel.history[-1].update(term="+".join(t.label for t in hyp),
+                                   gain=float(gains[pick]), p_value=e["p_value"], accepted=True)
+            self._aliases(sel, hyp, fit, trials, gains, float(gains[pick]))
             current = fit
-            remaining = [t for t in remaining if t.key != term.key]
+            done = {t.key for t in hyp}
+            remaining = [t for t in remaining if t.key not in done]
         current = self._prune(current, sel, tried)
         current = self._demote_flips(current, sel, tried)
         current = self._identify(current, sel, tried)
         final = self.fit(current.terms, current.nl, rows=self.fit_rows) if current.terms \
             else self.fit([], rows=self.fit_rows)
-        for t, i in zip(final.terms, range(len(final.terms)), strict=True):
-            if t.key in tried:
-                tried[t.key]["params"] = _params(final, i)
+        for i, t in enumerate(final.terms):
+            if (t.key,) in tried:
+                tried[(t.key,)]["params"] = _params(final, i)
         sel.fit = final
         joint = self._joint(final)
         joint.pop("_analysis", None)
@@ -533,7 +577,7 @@ class Fitter:
                 break
             t = current.terms[i]
             sel.history.append({"term": t.label, "removed": True, "p_value": float(p)})
-            tried[t.key].update(decision="removed", statistic=g.statistic, p_value=g.p_value,
+            tried[(t.key,)].update(decision="removed", statistic=g.statistic, p_value=g.p_value,
                                 gain=g.share_removed,
                                 reason=f"made unnecessary by the other named effects (held-out "
                                        f"gain given them: p = {p:.2g} ≥ {alpha:.2g})")
@@ -594,7 +638,7 @@ class Fitter:
                     f"{bp:+.3g} where {name} > 0 and {bn:+.3g} where {name} < 0 (parameter "
                     f"units); an offset whose sign follows the direction of motion is not a "
                     "constant (an odd function of the motion is missing)")
-            tried[t.key].update(decision="demoted", reason=text)
+            tried[(t.key,)].update(decision="demoted", reason=text)
             self._forget(sel, t)
             sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
                                  "text": text})
@@ -625,7 +669,7 @@ class Fitter:
             carriers = {n.rsplit(":", 1)[0] for n in combo.weights}
             idx = [i for i, t in enumerate(current.terms) if t.label in carriers] or \
                 [len(current.terms) - 1]
-            gain = {t.key: tried.get(t.key, {}).get("gain", 0.0) for t in current.terms}
+            gain = {t.key: tried.get((t.key,), {}).get("gain", 0.0) for t in current.terms}
             i = max(idx, key=lambda k: (current.terms[k].effect.n_params,
                                         -gain[current.terms[k].key]))
             t = current.terms[i]
@@ -635,10 +679,10 @@ class Fitter:
                     + (f"; {', '.join(kept)} carr{'ies' if len(kept) == 1 else 'y'} the "
                        "identifiable part" if kept else "") + ".")
             found.append(combo.describe())
-            tried.setdefault(t.key, {"effect": t.effect.name, "channel": t.channel,
+            tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
                                      "params": _params(current, i), "gain": 0.0,
                                      "test": TEST_NAME, "statistic": None, "p_value": None})
-            tried[t.key].update(decision="not identifiable", reason=text)
+            tried[(t.key,)].update(decision="not identifiable", reason=text)
             self._forget(sel, t)
             sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
                                  "text": text})
@@ -646,16 +690,21 @@ class Fitter:
         sel.identifiability = {"combinations": found}
         return current
 
-    def _aliases(self, sel: Selection, term: Term, fit: FitResult, trials, gains,
+    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], fit: FitResult, trials, gains,
                  gain: float) -> None:
-        """Warn where another candidate explains the same held-out residual as ``term``.
+        """Warn where another candidate explains the same held-out residual as ``hyp``.
 
         ``gain``/``gains`` are shares of the (per-channel scaled) held-out loss removed.
         """
+        if len(hyp) != 1:
+            return
+        (term,) = hyp
         mine = fit.pred[-1][self.valid].ravel()
-        for (t, f), g in zip(trials, gains, strict=True):
-            if t.key == term.key or not np.isfinite(g) or g < ALIAS_GAIN * gain:
+        for (h, f), g in zip(trials, gains, strict=True):
+            if len(h) != 1 or h[0].key == term.key or not np.isfinite(g) or \
+                    g < ALIAS_GAIN * gain:
                 continue
+            (t,) = h
             same_ch = t.index == term.index
             nested = same_ch and (t.effect.name in term.effect.generalizes or
                                   term.effect.name in t.effect.generalizes)

@@ -204,7 +204,11 @@ def likelihood_ratio(e0: np.ndarray, e1: np.ndarray, dof: int) -> LikelihoodRati
         else:
             stat += n_eff * float(np.log(s0 / s1))
     share = float(np.mean(shares)) if shares else 0.0
-    if not used or min(n_effs[c] for c in used) < MIN_EFFECTIVE:
+    if not used:   # the candidate changes nothing held out (e.g. fitted to zero)
+        return LikelihoodRatio(statistic=0.0, p_value=1.0, dof=dof,
+                               effective_samples=tuple(n_effs), shares=tuple(shares),
+                               share_removed=0.0, testable=True)
+    if min(n_effs[c] for c in used) < MIN_EFFECTIVE:
         n_min = min((n_effs[c] for c in used), default=0.0)
         return LikelihoodRatio(statistic=float("nan"), p_value=float("nan"), dof=dof,
                                effective_samples=tuple(n_effs), shares=tuple(shares),

@@ -179,3 +179,26 @@ def test_signed_nonlinear_correction_can_go_negative():
     sel = Fitter(Fake(), r, np.array([0.05])).select([Term(eff, 0, "c")])
     assert [t.label for t in sel.fit.terms] == ["signed@c"]
     assert abs(sel.fit.nl[0][0] + 0.4) < 0.03
+
+
+def test_friction_family_fitted_together_with_a_signed_viscous_correction():
+    """A nominal damping that is too high (a negative viscous correction) beside a missing
+    Coulomb friction, tuned so that Coulomb alone gains nothing: friction is tried as one
+    family, named in one round, with the viscous correction negative."""
+    rng = np.random.default_rng(8)
+    tt = np.arange(N) * DT
+    amp = 0.85
+    v = amp * np.sin(1.3 * tt)
+    fc = 0.3 * 2 * amp / np.pi          # Coulomb alone: Fc* = fc − 0.3·E|v| = 0
+    r = (-0.3 * v + fc * np.tanh(v / 0.01) + rng.normal(0, 0.02, N))[:, None]
+    coul = _effect("coulomb_friction", np.tanh(v / 0.01), lower=0.0)
+    visc = _effect("viscous_friction", v, lower=-0.5)
+    sel = Fitter(Fake(), r, np.array([0.02])).select(
+        [Term(coul, 0, "c"), Term(visc, 0, "c")])
+    fitted = {t.effect.name: float(lv[0]) for t, lv in zip(sel.fit.terms, sel.fit.lin,
+                                                           strict=True)}
+    assert set(fitted) == {"coulomb_friction", "viscous_friction"}
+    assert abs(fitted["viscous_friction"] + 0.3) < 0.03 and abs(fitted["coulomb_friction"] -
+                                                                fc) < 0.03
+    assert sel.history[0]["term"] == "coulomb_friction@c+viscous_friction@c"
+    assert {t["decision"] for t in sel.tried} == {"named"}
