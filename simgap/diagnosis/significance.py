@@ -69,6 +69,18 @@ class GainTest:
     reason: str = ""
 
 
+def _pair(e0: np.ndarray, e1: np.ndarray, who: str) -> tuple[np.ndarray, np.ndarray]:
+    """Both error arrays as (N, C) floats; DiagnosisError on a shape mismatch or non-finite."""
+    a = np.asarray(e0, dtype=np.float64)
+    b = np.asarray(e1, dtype=np.float64)
+    if a.shape != b.shape or a.ndim not in (1, 2):
+        raise DiagnosisError(f"{who}: error arrays of shapes {a.shape} and "
+                             f"{b.shape} do not match")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise DiagnosisError(f"{who}: non-finite held-out errors")
+    return (a[:, None], b[:, None]) if a.ndim == 1 else (a, b)
+
+
 def predictive_gain(e0: np.ndarray, e1: np.ndarray, segments: np.ndarray | None = None,
                     scale: np.ndarray | None = None) -> GainTest:
     """Test whether residuals ``e1`` (candidate) are smaller than ``e0`` (baseline).
@@ -86,15 +98,7 @@ def predictive_gain(e0: np.ndarray, e1: np.ndarray, segments: np.ndarray | None 
     Raises:
         DiagnosisError: on mismatched shapes or non-finite errors.
     """
-    a = np.asarray(e0, dtype=np.float64)
-    b = np.asarray(e1, dtype=np.float64)
-    if a.shape != b.shape or a.ndim not in (1, 2):
-        raise DiagnosisError(f"predictive_gain: error arrays of shapes {a.shape} and "
-                             f"{b.shape} do not match")
-    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise DiagnosisError("predictive_gain: non-finite held-out errors")
-    if a.ndim == 1:
-        a, b = a[:, None], b[:, None]
+    a, b = _pair(e0, e1, "predictive_gain")
     if scale is None:
         scale = np.sqrt(np.mean(a**2, axis=0))
     scale = np.where(np.asarray(scale, dtype=np.float64) > 0, scale, 1.0)
@@ -173,15 +177,7 @@ def likelihood_ratio(e0: np.ndarray, e1: np.ndarray, dof: int) -> LikelihoodRati
     Raises:
         DiagnosisError: on mismatched shapes or non-finite errors.
     """
-    a = np.asarray(e0, dtype=np.float64)
-    b = np.asarray(e1, dtype=np.float64)
-    if a.shape != b.shape or a.ndim not in (1, 2):
-        raise DiagnosisError(f"likelihood_ratio: error arrays of shapes {a.shape} and "
-                             f"{b.shape} do not match")
-    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise DiagnosisError("likelihood_ratio: non-finite held-out errors")
-    if a.ndim == 1:
-        a, b = a[:, None], b[:, None]
+    a, b = _pair(e0, e1, "likelihood_ratio")
     dof = max(int(dof), 1)
     stat, n_effs, shares, used = 0.0, [], [], []
     for c in range(a.shape[1]):

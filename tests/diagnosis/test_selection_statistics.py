@@ -202,3 +202,25 @@ def test_friction_family_fitted_together_with_a_signed_viscous_correction():
                                                                 fc) < 0.03
     assert sel.history[0]["term"] == "coulomb_friction@c+viscous_friction@c"
     assert {t["decision"] for t in sel.tried} == {"named"}
+
+
+def test_likelihood_ratio_holds_its_level_on_correlated_noise():
+    """Under "no gain" (a useless term fitted on other data, autocorrelated errors) the
+    held-out test rejects at most about its level; a real gain is found."""
+    from scipy.signal import lfilter
+
+    from simgap.diagnosis.significance import likelihood_ratio
+
+    rng = np.random.default_rng(9)
+    n, hits = 400, 0
+    x = np.sin(np.arange(n) * 0.05)
+    for _ in range(300):
+        e0 = lfilter([1.0], [1.0, -0.8], rng.normal(0, 1.0, n))
+        delta = rng.normal(0, 3.0 / np.sqrt(n))      # training error of a useless term
+        hits += likelihood_ratio(e0, e0 - delta * x, 1).p_value < 0.01
+    assert hits <= 6
+    e0 = lfilter([1.0], [1.0, -0.8], rng.normal(0, 1.0, n)) + 0.8 * x
+    res = likelihood_ratio(e0, e0 - 0.8 * x, 1)
+    assert res.testable and res.p_value < 1e-3 and 0 < res.share_removed < 1
+    short = likelihood_ratio(e0[:8], e0[:8] - 0.8 * x[:8], 1)
+    assert not short.testable and "effective samples" in short.reason
