@@ -33,10 +33,13 @@ rounding cannot change it; noise inflated by the residual's autocorrelation time
 combination is undetermined, the term carrying it with the most parameters (then the
 smallest gain) is dropped and the combination reported. A constant effect (bias) whose
 separate fits on the two signs of an operating rate (velocity, yaw rate) have opposite,
-clearly non-zero signs is demoted: it is not a constant. The kept terms are refitted on the
-whole fit part. When a term with a different physical meaning is nearly as good
-(:data:`ALIAS_GAIN`) and its held-out contribution is strongly correlated with the chosen
-one (:data:`ALIAS_CORR`), the pair is reported as a collinearity warning.
+clearly non-zero signs is demoted: it is not a constant. The kept terms are refitted on
+the whole fit part, and each must then also gain on the outer test part (a second,
+independent held-out sample: the same test, :meth:`Fitter._confirm`) unless that part holds
+no information about it; a validation gain that does not replicate is not named. When a
+term with a different physical meaning is nearly as good (:data:`ALIAS_GAIN`) and its
+held-out contribution is strongly correlated with the chosen one (:data:`ALIAS_CORR`), the
+pair is reported as a collinearity warning.
 
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
@@ -47,7 +50,7 @@ grid. Standard errors: s²(JᵀJ)⁻¹ with the full Jacobian at the optimum, s�
 residual variance.
 
 Every term tried ends in :attr:`Selection.tried` with its test, statistic, p-value, effect
-size and decision (named, rejected, cannot test, removed, not identifiable, demoted).
+size and decision (named, rejected, cannot test, removed, demoted, not identifiable, not confirmed).
 """
 
 from __future__ import annotations
@@ -537,8 +540,7 @@ class Fitter:
         current = self._prune(current, sel, tried)
         current = self._demote_flips(current, sel, tried)
         current = self._identify(current, sel, tried)
-        final = self.fit(current.terms, current.nl, rows=self.fit_rows) if current.terms \
-            else self.fit([], rows=self.fit_rows)
+        final = self._confirm(current, sel, tried)
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
                 tried[(t.key,)]["params"] = _params(final, i)
@@ -551,6 +553,47 @@ class Fitter:
         sel.tried = [{k: v for k, v in e.items() if not k.startswith("_")}
                      for e in tried.values()]
         return sel
+
+    def _confirm(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
+        """Refit on the whole fit part; keep only terms whose gain replicates held out.
+
+        The validation blocks chose the terms; the outer test part (later usable rows,
+        never fitted) is a second, independent held-out sample. A term whose removal the
+        likelihood-ratio test there does not reject (at :data:`ALPHA` shared by the terms)
+        is not named: its validation gain did not replicate. A term the test part holds no
+        information about is kept (and reported as not testable there).
+        """
+        terms, nls = list(current.terms), list(current.nl)
+        while True:
+            final = self.fit(terms, nls, rows=self.fit_rows)
+            if not terms:
+                return final
+            alpha = ALPHA / len(terms)
+            worst = None
+            for i, t in enumerate(terms):
+                if self.information(t, final.nl[i], self.test, self.fit_rows) < \
+                        validation.NO_INFORMATION:
+                    continue
+                keep = [j for j in range(len(terms)) if j != i]
+                without = self.fit([terms[j] for j in keep], [final.nl[j] for j in keep],
+                                   rows=self.fit_rows)
+                g = likelihood_ratio(self._errors(without, self.test),
+                                     self._errors(final, self.test), t.effect.n_params)
+                p = g.p_value if g.testable else 0.0
+                if p >= alpha and (worst is None or p > worst[0]):
+                    worst = (p, i, g)
+            if worst is None:
+                return final
+            p, i, g = worst
+            t = terms.pop(i)
+            nls.pop(i)
+            text = (f"{t.effect.label} at {t.channel} is not named: its gain on the "
+                    f"validation blocks did not replicate on the later held-out part (p = "
+                    f"{p:.2g} ≥ {alpha:.2g}, share removed there {_share(g.share_removed)})")
+            tried[(t.key,)].update(decision="not confirmed", reason=text)
+            self._forget(sel, t)
+            sel.history.append({"term": t.label, "removed": True, "p_value": float(p),
+                                "part": "test"})
 
     def _drop(self, current: FitResult, i: int) -> FitResult:
         keep = [j for j in range(len(current.terms)) if j != i]

@@ -36,6 +36,8 @@ BLOCKS = 20
 MIN_BLOCK_ROWS = 5
 #: Held-out regressor energy per row below this share of the training one: no information.
 NO_INFORMATION = 1e-6
+#: A time step longer than this many median steps is a gap in the log.
+GAP_STEPS = 5.0
 
 
 @dataclass(frozen=True)
@@ -118,6 +120,34 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     is_valid = np.isin(labels, chosen)
     return Split(train=fit[~is_valid], valid=fit[is_valid], valid_block=labels[is_valid],
                  fit=fit, test=test, t_split=float(0.5 * (t[fit[-1]] + t[test[0]])))
+
+
+def gap_segments(t_recorded: np.ndarray, t_grid: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Segment labels of grid rows from the recorded time stamps, and rows inside gaps.
+
+    The fallback when the prepared residual carries no ``segment`` array: a recorded time
+    step longer than :data:`GAP_STEPS` median steps is a gap; grid rows strictly inside it
+    were interpolated, not measured.
+
+    Args:
+        t_recorded: the recording's time stamps (s), increasing.
+        t_grid: the residual grid's times (s).
+
+    Returns:
+        (segment label per grid row, True for grid rows inside a gap).
+    """
+    tr = np.asarray(t_recorded, dtype=np.float64)
+    tg = np.asarray(t_grid, dtype=np.float64)
+    if tr.size < 3:
+        return np.zeros(tg.size, dtype=np.int64), np.zeros(tg.size, dtype=bool)
+    step = np.diff(tr)
+    gaps = np.flatnonzero(step > GAP_STEPS * float(np.median(step)))
+    seg = np.searchsorted(tr[gaps + 1], tg, side="right").astype(np.int64)
+    inside = np.zeros(tg.size, dtype=bool)
+    for g in gaps:
+        inside |= (tg > tr[g]) & (tg < tr[g + 1])
+    return seg, inside
 
 
 def information_share(regressors: np.ndarray, held_out: np.ndarray, train: np.ndarray

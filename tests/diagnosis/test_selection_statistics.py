@@ -5,6 +5,7 @@ corrections."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from simgap.diagnosis.effects import Effect
 from simgap.diagnosis.fit import Fitter, Term
@@ -224,3 +225,18 @@ def test_likelihood_ratio_holds_its_level_on_correlated_noise():
     assert res.testable and res.p_value < 1e-3 and 0 < res.share_removed < 1
     short = likelihood_ratio(e0[:8], e0[:8] - 0.8 * x[:8], 1)
     assert not short.testable and "effective samples" in short.reason
+
+
+def test_rows_interpolated_across_a_gap_are_found_from_the_time_stamps():
+    """Without a segment array from the signals, the recorded time stamps give the gaps:
+    grid rows inside one are marked (never fitted) and the segments change across it."""
+    from simgap.diagnosis.validation import gap_segments
+
+    t_rec = np.concatenate([np.arange(0, 10, 0.01), np.arange(15, 20, 0.01)])
+    t_grid = np.arange(0, 19.995, 0.01)
+    seg, inside = gap_segments(t_rec, t_grid)
+    assert inside.sum() == pytest.approx(499, abs=2)
+    assert np.all((t_grid[inside] > 9.99) & (t_grid[inside] < 15.0))
+    assert seg[t_grid < 9.995].max() == 0 and seg[t_grid >= 15.0].min() == 1
+    jitter = np.sort(np.arange(0, 10, 0.01) + np.random.default_rng(0).normal(0, 0.002, 1000))
+    assert not gap_segments(jitter, t_grid[:1000])[1].any()
