@@ -2,30 +2,55 @@
 
 Every vocabulary effect at every channel is a hypothesis (a :class:`Term`). The residual is
 whitened per channel by its noise floor and thinned to every ``window // 2``-th sample (the
-Savitzky–Golay filter correlates neighbouring samples; thinning leaves nearly independent
-ones, which keeps the standard errors honest and the fits fast). The earlier 70 % of the
-recording trains, the later 30 % tests.
+Savitzky–Golay filter correlates neighbouring samples). The rows are split by
+:mod:`.validation`: usable rows only, the last share as the outer test part (report
+numbers), the rest cut into blocks of which an evenly spread share validates the selection
+(interleaved, so that validation sees the same operating regions as training).
 
 Forward selection: in each round every remaining term is fitted together with the terms
-already chosen (training part only), and scored by how much it lowers the whitened squared
-error on the *test* part. A term is accepted if that held-out reduction is at least
-:data:`MIN_GAIN` per test sample of the channels it acts on (its contribution is then at
-least half the noise floor in RMS)
-and at least :data:`MIN_REL` of the remaining held-out error, and if no fitted parameter
-sits on a plausibility limit (a term pushed onto its limit is being forced onto data it does
-not describe, e.g. mass and stiffness shrunk tenfold together). A backward pass then drops any
-chosen term whose removal costs less than that (a later term explained it better). When
-several terms come within :data:`TIE` of the best reduction, the one with fewer parameters
-wins (Coulomb before Stribeck, bias before spring); when a term with a different physical
-meaning is nearly as good (:data:`ALIAS_GAIN`) and its held-out contribution is strongly
-correlated with the chosen one (:data:`ALIAS_CORR`), the pair is reported as a collinearity
-warning instead of silently picking one.
+already chosen (training blocks), and its held-out gain over the current set is *tested*
+on the validation blocks (:func:`.significance.likelihood_ratio`: per channel, a Gaussian
+log-likelihood ratio whose variance is the error the candidate leaves there — a floor that
+includes model-structure error, not sensor noise alone — with N/τ effective samples, summed
+over channels, χ² with the candidate's number of parameters). A term is a candidate when it
+is significant at :data:`ALPHA` divided by the number of terms tried in that round (the best
+of many is picked on the same data), when the validation part holds information about it
+(:func:`.validation.information_share`; otherwise "cannot test") and when no fitted
+parameter sits on a plausibility limit. Among candidates the largest per-channel share of
+the held-out loss removed wins (every channel counts by its own remaining error, so
+one large channel or a sum over both axles does not decide); within :data:`TIE` of it the
+hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring). Besides
+single terms, each :data:`FAMILIES` (friction: Coulomb and viscous) is tried as one joint
+hypothesis at each channel, so that corrections that only make sense together (a nominal
+damping that is too high, a signed viscous correction, beside a missing Coulomb friction)
+can be found even when neither alone gains. Effect sizes
+are reported, never gated on. A backward pass drops any chosen term whose removal the same
+test does not reject (a later term explained it better).
+
+Before naming, the chosen set is checked as a whole: the joint Jacobian of all chosen
+parameters goes through :func:`.identifiability.analyse` (column-normalised SVD: units and
+rounding cannot change it; noise inflated by the residual's autocorrelation time); while a
+combination is undetermined, the term carrying it with the most parameters (then the
+smallest gain) is dropped and the combination reported. A constant effect (bias) whose
+separate fits on the two signs of an operating rate (velocity, yaw rate) have opposite,
+clearly non-zero signs is demoted: it is not a constant. The kept terms are refitted on
+the whole fit part, and each must then also gain on the outer test part (a second,
+independent held-out sample: the same test, :meth:`Fitter._confirm`) unless that part holds
+no information about it; a validation gain that does not replicate is not named. When a
+term with a different physical meaning is nearly as good (:data:`ALIAS_GAIN`) and its
+held-out contribution is strongly correlated with the chosen one (:data:`ALIAS_CORR`), the
+pair is reported as a collinearity warning.
 
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
-physical sign bounds such as Fc ≥ 0); nonlinear ones (Stribeck vs, tire mu, steering lag tau)
-by ``scipy.optimize.least_squares`` over the nonlinear parameters with the linear ones
-solved inside (variable projection), started from the best point of a coarse grid. Standard
-errors: s²(JᵀJ)⁻¹ with the full Jacobian at the optimum, s² the whitened residual variance.
+physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
+bound is negative); nonlinear ones (Stribeck vs, tire mu, steering lag tau) by
+``scipy.optimize.least_squares`` (in log space when their bounds are positive) with the
+linear ones solved inside (variable projection), started from the best point of a coarse
+grid. Standard errors: s²(JᵀJ)⁻¹ with the full Jacobian at the optimum, s² the whitened
+residual variance.
+
+Every term tried ends in :attr:`Selection.tried` with its test, statistic, p-value, effect
+size and decision (named, rejected, cannot test, removed, demoted, not identifiable, not confirmed).
 """
 
 from __future__ import annotations
@@ -37,15 +62,26 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
+from simgap.diagnosis import identifiability, validation
 from simgap.diagnosis.effects import Effect
+from simgap.diagnosis.errormodel import autocorrelation_time
+from simgap.diagnosis.significance import likelihood_ratio
 
-MIN_GAIN = 0.25
-MIN_REL = 0.02
+#: Family-wise significance level of one selection round (divided by the terms tried).
+ALPHA = 0.01
 TIE = 0.05
 ALIAS_GAIN = 0.8
 ALIAS_CORR = 0.9
 MAX_EFFECTS = 6
 TRAIN_FRACTION = 0.7
+#: A constant effect is demoted when its fits on the two signs of an operating rate differ
+#: in sign, each this many standard errors from zero.
+FLIP_Z = 3.0
+#: An operating rate counts as taking both signs when each holds this share of the rows.
+FLIP_SIDE_SHARE = 0.1
+#: Effects fitted together as one hypothesis as well as alone (same channel).
+FAMILIES = (("coulomb_friction", "viscous_friction"),)
+TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
 
 
 @dataclass(frozen=True)
@@ -61,6 +97,11 @@ class Term:
         """Identity of the term."""
         return (self.effect.name, self.index)
 
+    @property
+    def label(self) -> str:
+        """``effect@channel``."""
+        return f"{self.effect.name}@{self.channel}"
+
 
 @dataclass
 class FitResult:
@@ -72,8 +113,15 @@ class FitResult:
         nl: nonlinear parameters per term.
         cov: covariance of all parameters (per term: linear then nonlinear, in term order).
         pred: filtered contribution of each term on the full grid, (N, C) each.
-        sse_test: whitened squared error on the test rows.
-        sse_train: whitened squared error on the training rows.
+        sse_test: whitened squared error on the outer test rows.
+        sse_train: whitened squared error on the rows it was fitted on.
+        sse_valid: whitened squared error on the validation rows.
+        jac: Jacobian on the fitted rows (rows·C, parameters), each channel divided by
+            the error the fit leaves there (unit residual std per channel), same column
+            order as :attr:`cov`.
+        tau: autocorrelation time of the whitened fitted residual (thinned rows), ≥ 1.
+        s2: whitened residual variance of the fit (all channels pooled).
+        scale: (C,) whitened residual std per channel.
     """
 
     terms: list[Term]
@@ -83,6 +131,11 @@ class FitResult:
     pred: list[np.ndarray]
     sse_test: float
     sse_train: float
+    sse_valid: float = 0.0
+    jac: np.ndarray | None = None
+    tau: float = 1.0
+    s2: float = 1.0
+    scale: np.ndarray | None = None
 
     def total(self, n: int, c: int) -> np.ndarray:
         """Sum of the contributions (N, C)."""
@@ -99,20 +152,38 @@ class FitResult:
             i += t.effect.n_params
         return out
 
+    def param_names(self) -> list[str]:
+        """``effect@channel:param`` per column of :attr:`cov`."""
+        return [f"{t.label}:{p}" for t in self.terms for p in (*t.effect.lin, *t.effect.nl)]
+
+    def values(self) -> np.ndarray:
+        """All parameter values in :attr:`cov` order."""
+        parts = [np.concatenate([np.asarray(lv, float), np.asarray(nv, float)])
+                 for lv, nv in zip(self.lin, self.nl, strict=True)]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
 
 @dataclass
 class Selection:
     """Outcome of the forward selection.
 
     Attributes:
-        fit: final fit of the accepted terms (or of none).
+        fit: final fit of the accepted terms (or of none), on the whole fit part.
         history: per round: accepted term, its held-out gain, runner-up gains.
-        warnings: collinearity warnings (plain words, plus the effects involved).
+        warnings: collinearity / identifiability warnings (plain words, plus the effects
+            involved).
+        tried: per term tried, its last evaluation: effect, channel, params, gain (share of
+            the per-channel-scaled held-out loss removed), test, statistic, p_value,
+            decision, reason.
+        identifiability: joint identifiability of the named set: names, correlation,
+            condition, combinations (the ones found undetermined and resolved).
     """
 
     fit: FitResult
     history: list[dict[str, Any]] = field(default_factory=list)
     warnings: list[dict[str, Any]] = field(default_factory=list)
+    tried: list[dict[str, Any]] = field(default_factory=list)
+    identifiability: dict[str, Any] = field(default_factory=dict)
 
 
 class Fitter:
@@ -122,35 +193,36 @@ class Fitter:
         system: the prepared system adapter (signals, smoother, effects' context).
         residual: physical residual on the uniform grid, (N, C).
         noise: noise floor per channel (C,).
-        train_fraction: share of the recording (earliest) used for training.
+        train_fraction: share of the usable rows before the outer test part (and share of
+            its blocks that train).
+        mask: (N, C) fit mask (0 where a row must not be fitted, e.g. stick phases).
+        segments: (N,) segment label per grid row (a new label after each gap); None: one
+            segment.
     """
 
     def __init__(self, system: Any, residual: np.ndarray, noise: np.ndarray,
-                 train_fraction: float = TRAIN_FRACTION, mask: np.ndarray | None = None
-                 ) -> None:
+                 train_fraction: float = TRAIN_FRACTION, mask: np.ndarray | None = None,
+                 segments: np.ndarray | None = None) -> None:
         self.sys = system
         self.n, self.c = residual.shape
         self.mask = np.ones((self.n, self.c)) if mask is None else mask.astype(float)
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
-        sm = system.smoother
-        step = max(1, sm.window // 2)
-        edge = sm.window
-        rows = np.arange(edge, self.n - edge, step)
-        t = system.t
-        self.t_split = float(t[0] + train_fraction * (t[-1] - t[0]))
-        self.train = rows[t[rows] < self.t_split]
-        self.test = rows[t[rows] >= self.t_split]
-        if len(self.train) < 10 or len(self.test) < 10:
-            raise ValueError("recording too short to split into training and test parts")
+        seg = None if segments is None else np.asarray(segments)
+        rows = validation.usable_rows(self.n, system.smoother.window, self.mask, seg)
+        self.split = validation.split_rows(system.t, rows, seg, train_fraction)
+        self.train, self.valid = self.split.train, self.split.valid
+        self.fit_rows, self.test = self.split.fit, self.split.test
+        self.t_split = self.split.t_split
         all_rows = np.arange(self.n)
         self.sig = system.rows(all_rows)
         self.sig0 = system.zero_derivatives(self.sig)
         # what the effects may read (forms.EffectContext); a bare adapter is its own context
         self.ctx = system.context() if hasattr(system, "context") else system
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        self.y_tr = (self.r[self.train] * self.w).ravel()
-        self.y_te = (self.r[self.test] * self.w).ravel()
+
+    def _y(self, rows: np.ndarray) -> np.ndarray:
+        return (self.r[rows] * self.w).ravel()
 
     # -- model evaluation --------------------------------------------------------------
     def output(self, term: Term, lin: np.ndarray, nl: np.ndarray) -> np.ndarray:
@@ -201,19 +273,26 @@ class Fitter:
             np.zeros((len(rows) * self.c, 0))
         return x, (off * self.w).ravel()
 
-    def _solve_lin(self, terms, nls):
-        x, off = self._design(terms, nls, self.train)
+    @staticmethod
+    def _lin_bounds(terms: Sequence[Term]) -> tuple[np.ndarray, np.ndarray]:
         lower = np.array([b for t in terms for b in t.effect.lin_lower], dtype=float)
         upper = np.array([b for t in terms for b in t.effect.upper], dtype=float)
-        if x.shape[1] == 0:
-            return np.zeros(0), self.y_tr - off, x
-        sol = lsq_linear(x, self.y_tr - off, bounds=(lower, upper),
-                         method="bvls" if x.shape[1] <= 12 else "trf")
-        return sol.x, self.y_tr - off - x @ sol.x, x
+        return lower, upper
 
-    def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None
-            ) -> FitResult:
-        """Fit the terms on the training part; score them on the test part."""
+    def _solve_lin(self, terms, nls, rows):
+        x, off = self._design(terms, nls, rows)
+        y = self._y(rows)
+        if x.shape[1] == 0:
+            return np.zeros(0), y - off, x
+        lower, upper = self._lin_bounds(terms)
+        sol = lsq_linear(x, y - off, bounds=(lower, upper),
+                         method="bvls" if x.shape[1] <= 12 else "trf")
+        return sol.x, y - off - x @ sol.x, x
+
+    def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None,
+            rows: np.ndarray | None = None) -> FitResult:
+        """Fit the terms on ``rows`` (default the training blocks); score the other parts."""
+        rows = self.train if rows is None else rows
         terms = list(terms)
         nls0 = [np.asarray(v, dtype=float) for v in (nl_start or
                 [np.array([g[len(g) // 2] for g in t.effect.nl_grid]) for t in terms])]
@@ -230,27 +309,39 @@ class Fitter:
 
         v0 = np.concatenate(nls0) if nls0 else np.zeros(0)
         if v0.size:
-            log_lo, log_hi = np.log(lo), np.log(hi)
+            # log space where the bounds are positive (scale parameters), linear otherwise
+            # (signed corrections may cross zero)
+            pos = lo > 0
+
+            def to_z(v):
+                return np.where(pos, np.log(np.where(pos, v, 1.0)), v)
+
+            def from_z(z):
+                return np.where(pos, np.exp(np.where(pos, z, 0.0)), z)
+
+            z_lo, z_hi = to_z(lo), to_z(hi)
+            width = np.where(np.isfinite(z_hi - z_lo), z_hi - z_lo, 1.0)
+            z0 = np.clip(to_z(v0), z_lo + 1e-9 * width, z_hi - 1e-9 * width)
 
             def resid(z):
-                return self._solve_lin(terms, split(np.exp(z)))[1]
-            sol = least_squares(resid, np.clip(np.log(v0), log_lo + 1e-9, log_hi - 1e-9),
-                                bounds=(log_lo, log_hi), diff_step=1e-4, max_nfev=60)
-            v = np.exp(sol.x)
+                return self._solve_lin(terms, split(from_z(z)), rows)[1]
+            sol = least_squares(resid, z0, bounds=(z_lo, z_hi), diff_step=1e-4, max_nfev=60)
+            v = from_z(sol.x)
         else:
             v = v0
         nls = split(v)
-        lin_all, res_tr, x = self._solve_lin(terms, nls)
+        lin_all, res_tr, x = self._solve_lin(terms, nls, rows)
         # Jacobian for the covariance: linear columns, then nonlinear by finite differences.
         jac_nl = []
+        if v.size:
+            xb, offb = self._design(terms, nls, rows)
+            pred_b = offb + (xb @ lin_all if xb.shape[1] else 0.0)
         for i in range(v.size):
             h = 1e-4 * max(abs(v[i]), 1e-6)
             vp = v.copy()
             vp[i] += h
-            xp, offp = self._design(terms, split(vp), self.train)
+            xp, offp = self._design(terms, split(vp), rows)
             pred_p = offp + (xp @ lin_all if xp.shape[1] else 0.0)
-            xb, offb = self._design(terms, nls, self.train)
-            pred_b = offb + (xb @ lin_all if xb.shape[1] else 0.0)
             jac_nl.append((pred_p - pred_b) / h)
         # order columns per term: its linear then its nonlinear parameters
         cols, li, ni = [], 0, 0
@@ -264,11 +355,15 @@ class Fitter:
         n_p = len(cols)
         dof = max(len(res_tr) - n_p, 1)
         s2 = float(res_tr @ res_tr) / dof
-        if n_p:
-            jac = np.stack(cols, axis=1)
-            cov = s2 * np.linalg.pinv(jac.T @ jac)
-        else:
-            cov = np.zeros((0, 0))
+        # each channel by the error the fit leaves there (its own floor, structure error
+        # included): a large unexplained channel does not inflate the others' uncertainty
+        res2 = res_tr.reshape(len(rows), self.c)
+        scale = np.sqrt(np.sum(res2**2, axis=0) / (dof / self.c))
+        scale = np.where(scale > 0, scale, 1.0)
+        jac = np.stack(cols, axis=1) if n_p else np.zeros((len(res_tr), 0))
+        jac = (jac.reshape(len(rows), self.c, n_p) / scale[None, :, None]).reshape(
+            len(res_tr), n_p)
+        cov = np.linalg.pinv(jac.T @ jac) if n_p else np.zeros((0, 0))
         lins, i = [], 0
         for t in terms:
             k = len(t.effect.lin)
@@ -279,10 +374,15 @@ class Fitter:
         total = np.zeros((self.n, self.c))
         for p in pred:
             total += p
-        e_te = ((self.r[self.test] - total[self.test]) * self.w).ravel()
-        e_tr = ((self.r[self.train] - total[self.train]) * self.w).ravel()
+
+        def sse(part):
+            e = ((self.r[part] - total[part]) * self.w).ravel()
+            return float(e @ e)
+        tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
         return FitResult(terms=terms, lin=lins, nl=nls, cov=cov, pred=pred,
-                         sse_test=float(e_te @ e_te), sse_train=float(e_tr @ e_tr))
+                         sse_test=sse(self.test), sse_train=sse(rows),
+                         sse_valid=sse(self.valid), jac=jac, tau=float(tau), s2=s2,
+                         scale=scale)
 
     @staticmethod
     def at_limit(fit: FitResult) -> list[str]:
@@ -292,115 +392,368 @@ class Fitter:
             e = t.effect
             bounds = list(zip(e.lin_lower, e.upper, strict=True)) + list(e.nl_bounds)
             for v, (lo, hi) in zip(np.concatenate([lin, nl]), bounds, strict=True):
-                # a one-sided bound (a signed correction down to −nominal, no upper limit)
-                # gets its tolerance from the finite bound's size, not from infinity
-                span = (hi - lo) if np.isfinite(hi - lo) else \
-                    max([abs(x) for x in (lo, hi) if np.isfinite(x)] + [1.0])
+                finite = [abs(b) for b in (lo, hi) if np.isfinite(b)]
+                span = (hi - lo) if np.isfinite(hi - lo) else max(finite + [1.0])
                 tol = 1e-3 * span
                 if (np.isfinite(lo) and lo != 0.0 and v <= lo + tol) or \
                         (np.isfinite(hi) and v >= hi - tol):
-                    out.append(f"{e.name}@{t.channel}")
+                    out.append(t.label)
                     break
         return out
 
-    def fit_new(self, chosen: FitResult, term: Term) -> FitResult:
-        """Fit ``chosen`` plus one new term, starting the new nonlinear ones on a grid."""
+    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term]) -> FitResult:
+        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid."""
+        new = [term] if isinstance(term, Term) else list(term)
         starts = [np.asarray(v) for v in chosen.nl]
-        if not term.effect.nl:
-            return self.fit(chosen.terms + [term], starts + [np.zeros(0)])
-        grid = np.array(np.meshgrid(*term.effect.nl_grid)).reshape(len(term.effect.nl), -1).T
+        terms = chosen.terms + new
+        if not any(t.effect.nl for t in new):
+            return self.fit(terms, starts + [np.zeros(0)] * len(new))
+        grids = [g for t in new for g in t.effect.nl_grid]
+        sizes = [len(t.effect.nl) for t in new]
+        grid = np.array(np.meshgrid(*grids)).reshape(len(grids), -1).T
+        lower, upper = self._lin_bounds(terms)
+        y = self._y(self.train)
         best, best_sse = None, np.inf
         for g in grid:
-            x, off = self._design(chosen.terms + [term], starts + [g], self.train)
-            lower = np.array([b for t in chosen.terms + [term] for b in t.effect.lin_lower])
-            upper = np.array([b for t in chosen.terms + [term] for b in t.effect.upper])
+            parts = np.split(g, np.cumsum(sizes)[:-1])
+            x, off = self._design(terms, starts + parts, self.train)
             if x.shape[1]:
-                sol = lsq_linear(x, self.y_tr - off, bounds=(lower, upper))
-                r = self.y_tr - off - x @ sol.x
+                sol = lsq_linear(x, y - off, bounds=(lower, upper))
+                r = y - off - x @ sol.x
             else:
-                r = self.y_tr - off
+                r = y - off
             sse = float(r @ r)
             if sse < best_sse:
-                best, best_sse = g, sse
-        return self.fit(chosen.terms + [term], starts + [best])
+                best, best_sse = parts, sse
+        return self.fit(terms, starts + best)
+
+    # -- testing -----------------------------------------------------------------------
+    def _errors(self, fit: FitResult, rows: np.ndarray) -> np.ndarray:
+        """Whitened errors (rows, C) a fit leaves on ``rows``."""
+        return (self.r[rows] - fit.total(self.n, self.c)[rows]) * self.w
+
+    def information(self, term: Term, nl: np.ndarray, held_out: np.ndarray,
+                    train: np.ndarray) -> float:
+        """Held-out/training regressor energy per row of a term (:mod:`.validation`)."""
+        cols, off = self.basis(term, np.asarray(nl, float))
+        reg = np.concatenate([cols, off[:, :, None]], axis=2) if np.any(off) else cols
+        return validation.information_share(reg, held_out, train)
+
+    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult
+                 ) -> dict[str, Any]:
+        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation)."""
+        k = len(hyp)
+        params: dict[str, float] = {}
+        for i in range(len(fit.terms) - k, len(fit.terms)):
+            params.update(_params(fit, i) if k == 1 else
+                          {f"{fit.terms[i].effect.name}.{n}": v
+                           for n, v in _params(fit, i).items()})
+        entry = {"effect": "+".join(t.effect.name for t in hyp), "channel": hyp[0].channel,
+                 "params": params, "gain": 0.0,
+                 "test": TEST_NAME, "statistic": float("nan"), "p_value": float("nan"),
+                 "decision": "rejected", "reason": "", "_testable": False, "_hyp": hyp}
+        for t, nl in zip(hyp, fit.nl[-k:], strict=True):
+            if self.information(t, nl, self.valid, self.train) < validation.NO_INFORMATION:
+                entry.update(decision="cannot test",
+                             reason=f"cannot test: the held-out part holds no information "
+                                    f"about {t.effect.label} at {t.channel} (its regressor "
+                                    "is zero there)")
+                return entry
+        limit = self.at_limit(fit)
+        g = likelihood_ratio(self._errors(base, self.valid), self._errors(fit, self.valid),
+                             sum(t.effect.n_params for t in hyp))
+        entry.update(gain=g.share_removed, statistic=g.statistic, p_value=g.p_value)
+        if not g.testable:
+            entry.update(decision="cannot test", reason=f"cannot test: {g.reason}")
+        elif limit:
+            entry.update(reason="a fitted parameter sits on its plausibility limit (forced "
+                                "onto data it does not describe)")
+        else:
+            entry["_testable"] = True
+        return entry
+
+    @staticmethod
+    def hypotheses(remaining: Sequence[Term]) -> list[tuple[Term, ...]]:
+        """Every remaining term alone, plus each :data:`FAMILIES` remaining at one channel.
+
+        A family's members are fitted together: they may only make sense jointly, e.g. a
+        nominal damping that is too high beside a missing Coulomb friction.
+        """
+        hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
+        by_key = {t.key: t for t in remaining}
+        for fam in FAMILIES:
+            for idx in sorted({t.index for t in remaining if t.effect.name == fam[0]},
+                              key=lambda i: -1 if i is None else i):
+                members = [by_key.get((name, idx)) for name in fam]
+                if all(m is not None for m in members):
+                    hyps.append(tuple(members))
+        return hyps
 
     # -- selection ---------------------------------------------------------------------
     def select(self, candidates: Sequence[Term]) -> Selection:
-        """Forward selection by held-out improvement (see the module docstring)."""
+        """Forward selection by held-out tests (see the module docstring)."""
         current = self.fit([])
         sel = Selection(fit=current)
         remaining = list(candidates)
-        n_test = len(self.test) * self.c
+        tried: dict[tuple, dict[str, Any]] = {}
         while remaining and len(current.terms) < MAX_EFFECTS:
-            trials = [(t, self.fit_new(current, t)) for t in remaining]
-            # A term pushed onto a plausibility limit is being forced: not a candidate.
-            gains = np.array([current.sse_test - f.sse_test if not self.at_limit(f)
-                              else -np.inf for _, f in trials])
-            if not np.isfinite(gains).any():
-                break
-            best = float(gains.max())
-            near = [i for i, g in enumerate(gains) if g >= best - TIE * abs(best)]
-            pick = min(near, key=lambda i: (trials[i][0].effect.n_params, -gains[i]))
-            term, fit = trials[pick]
-            gain = float(gains[pick])
-            n_aff = self._n_affected(term)
-            ok = gain >= MIN_GAIN * n_aff and gain >= MIN_REL * current.sse_test
-            sel.history.append({"term": f"{term.effect.name}@{term.channel}", "gain": gain,
-                                "gain_per_sample": gain / n_aff, "accepted": bool(ok),
-                                "runner_up": sorted(
-                                    ((f"{t.effect.name}@{t.channel}", float(g))
-                                     for (t, _), g in zip(trials, gains, strict=True)
-                                     if np.isfinite(g)),
-                                    key=lambda x: -x[1])[:4]})
+            hyps = self.hypotheses(remaining)
+            trials = [(h, self.fit_new(current, h)) for h in hyps]
+            evals = [self.evaluate(current, h, f) for h, f in trials]
+            testable = [e for e in evals if e["_testable"]]
+            alpha = ALPHA / max(len(testable), 1)
+            for e in evals:
+                if e["_testable"]:
+                    e["reason"] = (f"held-out gain not significant (p = {e['p_value']:.2g} ≥ "
+                                   f"{alpha:.2g}, the level {ALPHA} shared by "
+                                   f"{len(testable)} hypotheses tried)")
+                tried[tuple(t.key for t in e["_hyp"])] = e
+            ok = [i for i, e in enumerate(evals)
+                  if e["_testable"] and e["p_value"] < alpha and e["gain"] > 0]
+            gains = np.array([e["gain"] if e["_testable"] else -np.inf for e in evals])
+            sel.history.append({"runner_up": sorted(
+                ((e["effect"] + "@" + e["channel"], float(e["gain"]))
+                 for e in evals if e["_testable"]), key=lambda x: -x[1])[:4]})
             if not ok:
+                sel.history[-1].update(accepted=False)
                 break
-            self._aliases(sel, term, fit, trials, gains, gain, current.sse_test)
+            best = max(gains[i] for i in ok)
+            near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
+            pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
+                                            -gains[i]))
+            hyp, fit = trials[pick]
+            e = evals[pick]
+            e.update(decision="named", reason=f"significant held-out gain (p = "
+                                              f"{e['p_value']:.2g} < {alpha:.2g})")
+            if len(hyp) > 1:   # a family: each member is named (and pruned) on its own
+                del tried[tuple(t.key for t in hyp)]
+                for t in hyp:
+                    tried[(t.key,)] = dict(e, effect=t.effect.name, _hyp=(t,), reason=(
+                        f"named with {'+'.join(m.effect.name for m in hyp)} fitted together: "
+                        f"{e['reason']}"))
+            sel.history[-1].update(term="+".join(t.label for t in hyp),
+                                   gain=float(gains[pick]), p_value=e["p_value"], accepted=True)
+            self._aliases(sel, hyp, fit, trials, gains, float(gains[pick]))
             current = fit
-            remaining = [t for t in remaining if t.key != term.key]
-        sel.fit = self._prune(current, sel, n_test)
+            done = {t.key for t in hyp}
+            remaining = [t for t in remaining if t.key not in done]
+        current = self._prune(current, sel, tried)
+        current = self._demote_flips(current, sel, tried)
+        current = self._identify(current, sel, tried)
+        final = self._confirm(current, sel, tried)
+        for i, t in enumerate(final.terms):
+            if (t.key,) in tried:
+                tried[(t.key,)]["params"] = _params(final, i)
+        sel.fit = final
+        joint = self._joint(final)
+        joint.pop("_analysis", None)
+        joint["combinations"] = sel.identifiability.get("combinations", []) + \
+            joint["combinations"]
+        sel.identifiability = joint
+        sel.tried = [{k: v for k, v in e.items() if not k.startswith("_")}
+                     for e in tried.values()]
         return sel
 
-    def _n_affected(self, term: Term) -> int:
-        """Test samples of the channels a term acts on (one channel, or all)."""
-        return len(self.test) * (1 if term.index is not None else self.c)
+    def _confirm(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
+        """Refit on the whole fit part; keep only terms whose gain replicates held out.
 
-    def _prune(self, current: FitResult, sel: Selection, n_test: int) -> FitResult:
-        """Backward pass: drop terms that a later term made unnecessary on held-out data."""
+        The validation blocks chose the terms; the outer test part (later usable rows,
+        never fitted) is a second, independent held-out sample. A term whose removal the
+        likelihood-ratio test there does not reject (at :data:`ALPHA` shared by the terms)
+        is not named: its validation gain did not replicate. A term the test part holds no
+        information about is kept (and reported as not testable there).
+        """
+        terms, nls = list(current.terms), list(current.nl)
+        while True:
+            final = self.fit(terms, nls, rows=self.fit_rows)
+            if not terms:
+                return final
+            alpha = ALPHA / len(terms)
+            worst = None
+            for i, t in enumerate(terms):
+                if self.information(t, final.nl[i], self.test, self.fit_rows) < \
+                        validation.NO_INFORMATION:
+                    continue
+                keep = [j for j in range(len(terms)) if j != i]
+                without = self.fit([terms[j] for j in keep], [final.nl[j] for j in keep],
+                                   rows=self.fit_rows)
+                g = likelihood_ratio(self._errors(without, self.test),
+                                     self._errors(final, self.test), t.effect.n_params)
+                p = g.p_value if g.testable else 0.0
+                if p >= alpha and (worst is None or p > worst[0]):
+                    worst = (p, i, g)
+            if worst is None:
+                return final
+            p, i, g = worst
+            t = terms.pop(i)
+            nls.pop(i)
+            text = (f"{t.effect.label} at {t.channel} is not named: its gain on the "
+                    f"validation blocks did not replicate on the later held-out part (p = "
+                    f"{p:.2g} ≥ {alpha:.2g}, share removed there {_share(g.share_removed)})")
+            tried[(t.key,)].update(decision="not confirmed", reason=text)
+            self._forget(sel, t)
+            sel.history.append({"term": t.label, "removed": True, "p_value": float(p),
+                                "part": "test"})
+
+    def _drop(self, current: FitResult, i: int) -> FitResult:
+        keep = [j for j in range(len(current.terms)) if j != i]
+        return self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep])
+
+    def _forget(self, sel: Selection, t: Term) -> None:
+        sel.warnings = [w for w in sel.warnings if w["effects"][0] != t.effect.name
+                        or w["channels"][0] != t.channel]
+
+    def _prune(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
+        """Backward pass: drop terms whose held-out gain, given the others, is not significant."""
         while len(current.terms) > 1:
+            alpha = ALPHA / len(current.terms)
             trials = []
             for i in range(len(current.terms)):
-                keep = [j for j in range(len(current.terms)) if j != i]
-                f = self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep])
-                trials.append((f.sse_test - current.sse_test, i, f))
-            loss, i, f = min(trials, key=lambda x: x[0])
-            t = current.terms[i]
-            n_aff = self._n_affected(t)
-            if loss >= MIN_GAIN * n_aff and loss >= MIN_REL * f.sse_test or self.at_limit(f):
+                f = self._drop(current, i)
+                g = likelihood_ratio(self._errors(f, self.valid),
+                                     self._errors(current, self.valid),
+                                     current.terms[i].effect.n_params)
+                p = g.p_value if g.testable else 1.0
+                trials.append((p, -g.share_removed, i, f, g))
+            p, _, i, f, g = max(trials, key=lambda x: (x[0], x[1]))
+            if p < alpha or self.at_limit(f):
                 break
-            sel.history.append({"term": f"{t.effect.name}@{t.channel}", "removed": True,
-                                "loss_per_sample": float(loss / n_aff)})
-            sel.warnings = [w for w in sel.warnings if w["effects"][0] != t.effect.name
-                            or w["channels"][0] != t.channel]
+            t = current.terms[i]
+            sel.history.append({"term": t.label, "removed": True, "p_value": float(p)})
+            tried[(t.key,)].update(decision="removed", statistic=g.statistic, p_value=g.p_value,
+                                gain=g.share_removed,
+                                reason=f"made unnecessary by the other named effects (held-out "
+                                       f"gain given them: p = {p:.2g} ≥ {alpha:.2g})")
+            self._forget(sel, t)
             current = f
         return current
 
-    def _aliases(self, sel: Selection, term: Term, fit: FitResult, trials, gains, gain,
-                 base: float) -> None:
-        """Warn where another candidate explains the same held-out residual as ``term``.
+    def _constant(self, term: Term, nl: np.ndarray) -> bool:
+        """Whether a term is a constant offset (its only regressor constant over rows)."""
+        cols, off = self.basis(term, np.asarray(nl, float))
+        if cols.shape[2] != 1 or term.effect.nl or np.any(off):
+            return False
+        x = cols[self.fit_rows, :, 0]
+        return bool(np.any(x) and np.allclose(x, x[0], rtol=1e-6, atol=0.0))
 
-        ``gain``/``gains`` are reductions of the held-out weighted squared residual; the
-        warning states them as shares of ``base``, that residual before this round.
-        """
-        mine = fit.pred[-1][self.test].ravel()
-        for (t, f), g in zip(trials, gains, strict=True):
-            if t.key == term.key or not np.isfinite(g) or g < ALIAS_GAIN * gain:
+    def _rates(self) -> dict[str, np.ndarray]:
+        """Operating rates (velocities, yaw rate) that take both signs."""
+        get = getattr(self.sys, "locate_variables", None)
+        out = {}
+        for name, (v, unit) in (get() if get else {}).items():
+            if not str(unit).endswith("/s"):
                 continue
+            v = np.asarray(v)[self.fit_rows]
+            if min(np.mean(v > 0), np.mean(v < 0)) >= FLIP_SIDE_SHARE:
+                out[name] = v
+        return out
+
+    def _demote_flips(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
+        """Drop constant effects whose sign follows the direction of an operating rate."""
+        rates = self._rates()
+        i = 0
+        while i < len(current.terms) and rates:
+            t = current.terms[i]
+            if not self._constant(t, current.nl[i]):
+                i += 1
+                continue
+            sc = self.w / current.scale      # channel units → unit residual std
+            x = self.basis(t, current.nl[i])[0][self.fit_rows, :, 0] * sc
+            others = current.total(self.n, self.c) - current.pred[i]
+            e = (self.r[self.fit_rows] - others[self.fit_rows]) * sc
+            s = np.sqrt(current.tau)
+            flip = None
+            for name, v in rates.items():
+                est = []
+                for side in (v > 0, v < 0):
+                    xx, ee = x[side].ravel(), e[side].ravel()
+                    den = float(xx @ xx)
+                    est.append((float(xx @ ee) / den, s / np.sqrt(den)) if den > 0 else (0, 1))
+                (bp, sp), (bn, sn) = est
+                if bp * bn < 0 and abs(bp) > FLIP_Z * sp and abs(bn) > FLIP_Z * sn:
+                    flip = (name, bp, bn)
+                    break
+            if flip is None:
+                i += 1
+                continue
+            name, bp, bn = flip
+            text = (f"{t.effect.label} at {t.channel} is not named: fitted separately, it is "
+                    f"{bp:+.3g} where {name} > 0 and {bn:+.3g} where {name} < 0 (parameter "
+                    f"units); an offset whose sign follows the direction of motion is not a "
+                    "constant (an odd function of the motion is missing)")
+            tried[(t.key,)].update(decision="demoted", reason=text)
+            self._forget(sel, t)
+            sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                 "text": text})
+            current = self._drop(current, i)
+        return current
+
+    def _joint(self, fit: FitResult) -> dict[str, Any]:
+        """Joint identifiability of a fit's parameters (report keys, plus ``_analysis``)."""
+        names = fit.param_names()
+        if not names:
+            return {"names": [], "correlation": [], "condition": 1.0, "combinations": []}
+        ana = identifiability.analyse(fit.jac, names, noise_std=float(np.sqrt(fit.tau)),
+                                      values=fit.values())
+        return {"names": names, "correlation": np.round(ana.correlation, 4).tolist(),
+                "condition": float(ana.condition),
+                "combinations": [c.describe() for c in ana.unidentifiable],
+                "_analysis": ana}
+
+    def _identify(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
+        """Drop terms until the named set is jointly identifiable; say which combination."""
+        found = []
+        while current.terms:
+            joint = self._joint(current)
+            ana = joint.get("_analysis")
+            if ana is None or ana.identifiable:
+                break
+            combo = ana.unidentifiable[0]
+            carriers = {n.rsplit(":", 1)[0] for n in combo.weights}
+            idx = [i for i, t in enumerate(current.terms) if t.label in carriers] or \
+                [len(current.terms) - 1]
+            gain = {t.key: tried.get((t.key,), {}).get("gain", 0.0) for t in current.terms}
+            i = max(idx, key=lambda k: (current.terms[k].effect.n_params,
+                                        -gain[current.terms[k].key]))
+            t = current.terms[i]
+            kept = sorted(carriers - {t.label})
+            text = (f"{t.effect.label} at {t.channel} is not named: "
+                    f"{combo.describe()}"
+                    + (f"; {', '.join(kept)} carr{'ies' if len(kept) == 1 else 'y'} the "
+                       "identifiable part" if kept else "") + ".")
+            found.append(combo.describe())
+            tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                     "params": _params(current, i), "gain": 0.0,
+                                     "test": TEST_NAME, "statistic": None, "p_value": None})
+            tried[(t.key,)].update(decision="not identifiable", reason=text)
+            self._forget(sel, t)
+            sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                 "text": text})
+            current = self._drop(current, i)
+        sel.identifiability = {"combinations": found}
+        return current
+
+    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], fit: FitResult, trials, gains,
+                 gain: float) -> None:
+        """Warn where another candidate explains the same held-out residual as ``hyp``.
+
+        ``gain``/``gains`` are shares of the (per-channel scaled) held-out loss removed.
+        """
+        if len(hyp) != 1:
+            return
+        (term,) = hyp
+        mine = fit.pred[-1][self.valid].ravel()
+        for (h, f), g in zip(trials, gains, strict=True):
+            if len(h) != 1 or h[0].key == term.key or not np.isfinite(g) or \
+                    g < ALIAS_GAIN * gain:
+                continue
+            (t,) = h
             same_ch = t.index == term.index
             nested = same_ch and (t.effect.name in term.effect.generalizes or
                                   term.effect.name in t.effect.generalizes)
             if nested:
                 continue
-            other = f.pred[-1][self.test].ravel()
+            other = f.pred[-1][self.valid].ravel()
             if np.std(mine) == 0 or np.std(other) == 0:
                 continue
             corr = float(np.corrcoef(mine, other)[0, 1])
@@ -411,13 +764,19 @@ class Fitter:
                     "correlation": corr,
                     "text": (f"{term.effect.label} at {term.channel} and {t.effect.label} at "
                              f"{t.channel} cannot be told apart on this data (each alone "
-                             f"removes {_share(gain, base)} vs {_share(g, base)} of the "
-                             f"held-out squared residual left before it; contributions "
-                             f"correlated {corr:+.2f}); "
+                             f"removes {_share(gain)} vs {_share(g)} of the held-out loss "
+                             f"left before it; contributions correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
 
 
-def _share(part: float, whole: float) -> str:
+def _params(fit: FitResult, i: int) -> dict[str, float]:
+    """Fitted parameter values of term ``i`` by name (raw fit parameters)."""
+    t = fit.terms[i]
+    vals = np.concatenate([fit.lin[i], fit.nl[i]])
+    return {n: float(v) for n, v in zip((*t.effect.lin, *t.effect.nl), vals, strict=True)}
+
+
+def _share(part: float, whole: float = 1.0) -> str:
     """``part`` as a percentage of ``whole`` for report text ("83 %")."""
-    return f"{100.0 * part / whole:.0f} %" if whole > 0 else "n/a"
+    return f"{100.0 * part / whole:.0f} %" if whole > 0 and np.isfinite(part) else "n/a"

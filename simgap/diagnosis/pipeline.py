@@ -45,6 +45,7 @@ from simgap.diagnosis.fit import Fitter, Selection, Term
 from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
+from simgap.diagnosis.validation import NO_INFORMATION, gap_segments
 from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal
@@ -278,6 +279,8 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
         channel = term.channel
         if term.effect.scope == "arm":
             channel = system.channels[int(np.argmax(np.sum(p_i**2, axis=0)))]
+        info = fitter.information(term, fit.nl[i], test, fitter.fit_rows)
+        testable = info >= NO_INFORMATION
         parts = []
         for name in params:
             v, s = fmt(params[name], se[name])
@@ -289,16 +292,21 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
                 f"{', '.join(parts)}")
         corrections = nominal_corrections(term.effect, params)
         text += "".join(c["text"] for c in corrections.values())
+        share = round(min(1.0, max(0.0, frac)), 4) if testable else 0.0
+        held_out = "" if testable else (f"cannot test: the held-out part holds no information "
+                                        f"about {term.effect.label} at {where}")
         entries.append({"effect": term.effect.name, "channel": channel,
                         "parameters": {k: float(v) for k, v in params.items()},
                         "stderr": {k: float(v) for k, v in se.items()},
                         "units": units,
-                        "explained_fraction": round(min(1.0, max(0.0, frac)), 4),
+                        "explained_fraction": share,
+                        "testable_held_out": bool(testable),
                         **({"nominal_correction": corrections} if corrections else {}),
                         "text": text,
-                        "summary": f"{text}, explains {100 * min(1.0, max(0.0, frac)):.0f} % "
-                                   f"of the residual "
-                                   f"{'there' if term.index is not None else 'overall'}"})
+                        "summary": (f"{text}, explains {100 * share:.0f} % of the held-out "
+                                    f"residual "
+                                    f"{'there' if term.index is not None else 'overall'}")
+                        if testable else f"{text} ({held_out})"})
         preds.append(fit.pred[i])
         fitted.append((term.effect, term.index, fit.lin[i], fit.nl[i]))
     return entries, preds, fitted, float(np.sum(resid**2))
@@ -370,9 +378,14 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         raise RecordingError(str(err).splitlines()[0]) from None
     plausibility.check_prepared(rec, system)
     stats = locate.channel_stats(system.channels, res.residual, res.noise_rms)
+    mask = system.fit_mask()
+    segment = getattr(res, "segment", None)
+    if segment is None:   # rows interpolated across a gap are not data: never fitted
+        segment, inside = gap_segments(rec.t, res.t)
+        mask = mask * ~inside[:, None]
     try:
         fitter = Fitter(system, res.residual, res.noise_rms, train_fraction,
-                        mask=system.fit_mask())
+                        mask=mask, segments=segment)
     except ValueError as err:
         raise RecordingError(f"{rec.name}: {err}") from None
     candidates = [Term(e, j, ch) for e, j, ch in system.candidates()]
@@ -436,9 +449,20 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "unexplained_fraction": round(min(1.0, unexplained), 4),
         "noise_fraction": round(min(1.0, noise_share), 4),
         "warnings": sel.warnings,
+        "tried": [_jsonable(e) for e in sel.tried],
+        "identifiability": sel.identifiability,
+        "verdict": verdict(entries, stats, system, unexplained if base > 0 else None),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
-                      "test": [fitter.t_split, float(t[-1])]},
+                      "test": [fitter.t_split, float(t[-1])],
+                      "method": ("usable rows only (masked rows and a filter window at gaps "
+                                 "left out); outer test = the last "
+                                 f"{100 * (1 - train_fraction):.0f} % of them; selection "
+                                 f"validated on {len(np.unique(fitter.split.valid_block))} "
+                                 "interleaved blocks of the rest, then refitted on all of it"),
+                      "rows": {"train": int(len(fitter.train)),
+                               "validation": int(len(fitter.valid)),
+                               "test": int(len(fitter.test))}},
             "nominal": {"derivative_rmse": comp.derivative_rmse["nominal"],
                         "rollout_rmse": comp.rollout_rmse["nominal"],
                         "rollout_score": comp.score["nominal"]},
@@ -465,6 +489,33 @@ def _run(rec: Recording, system: Any, horizon: float | None,
     return Report(data=data, augmented=augmented, system=system, residual=res.residual,
                   noise=res.noise_rms, selection=sel, comparison=comp,
                   fitted_pred=sel.fit.total(fitter.n, fitter.c), term_preds=preds)
+
+
+def _jsonable(entry: dict[str, Any]) -> dict[str, Any]:
+    """A ``tried`` entry with non-finite numbers as None (valid JSON)."""
+    out = {}
+    for k, v in entry.items():
+        if isinstance(v, float) and not np.isfinite(v):
+            v = None
+        out[k] = v
+    return out
+
+
+def verdict(entries: list[dict], stats: list[locate.ChannelStat], system: Any,
+            unexplained: float | None) -> str:
+    """One line: is there a mismatch, what is named, what is left."""
+    hit = [_channel_label(s.channel) for s in stats if s.significant]
+    if not entries:
+        if not hit:
+            return "No mismatch beyond the noise: the nominal model explains this recording."
+        return (f"Mismatch at {', '.join(hit)}, not explained by a named effect (no "
+                "vocabulary effect passed and replicated the held-out tests): located, not "
+                "named.")
+    names = "; ".join(e["text"] for e in entries)
+    if unexplained is None:
+        return f"Named: {names} (the held-out part cannot test them)."
+    return (f"Named: {names}; {100 * (1 - min(1.0, unexplained)):.0f} % of the held-out "
+            f"residual explained, {100 * min(1.0, unexplained):.0f} % left.")
 
 
 def default_out_dir(recording: str | os.PathLike) -> Path:

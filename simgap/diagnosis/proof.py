@@ -5,8 +5,9 @@ marker) and ``benchmarks/diagnosis_proof.py`` (prints the table). The diagnosis 
 the recording's columns; the injected truth is compared afterwards.
 
 Parameter ranges (:data:`RANGES`) are drawn per seed; their lower ends sit above the
-detection limit of the default recordings: an effect is named only if its held-out RMS is at
-least about half the channel's noise floor (``fit.MIN_GAIN``). Measured limits on these
+detection limit of the default recordings: an effect is named only if its held-out
+likelihood-ratio test passes (``fit.ALPHA``, issue 13; before it, a held-out RMS of half the
+noise floor). Measured limits on these
 recordings (20 s arm, 40 s car): yaw_bias ≈ 0.06 rad/s² (0.05 was missed in 1 of 5 seeds);
 inertia_mismatch at joint 1 ≈ 0.01 kg·m² (0.0075 and 0.010 named in 4 of 5 seeds, 0.005 in
 2 of 5; the missed seed has little acceleration in its held-out part). Smaller effects are

@@ -1,0 +1,180 @@
+"""Which rows of a recording fit the effects and which test them.
+
+A split at 70 % of the *time* fails on real logs: a free decay puts the large amplitudes in
+training and only the small ones (or only stick phases, which the fit masks) in the test
+part, so nothing can gain there; a gap in the log lets a filter window straddle two
+unrelated stretches. The split here works on *usable rows* only:
+
+* rows are the residual grid thinned to every ``window // 2``-th sample (the smoothing
+  filter correlates neighbours), away from the recording's ends and from gaps by one filter
+  window, and kept only where at least one channel is unmasked;
+* the **outer test part** is the last ``1 − train_fraction`` of the usable rows (not of the
+  time): it is never seen by the fit or the selection and gives the report's held-out
+  numbers;
+* the rows before it (the **fit part**) are cut into :data:`BLOCKS` contiguous blocks that
+  never straddle a gap; an evenly spread ``1 − train_fraction`` of these blocks *validates*
+  the selection, the others train it. Interleaved blocks see the same operating regions as
+  the training blocks (amplitudes of a decay, both directions of a car that turns left and
+  right in turns, the speeds of a ramp), which a single cut in time does not; the chosen
+  terms are then refitted on the whole fit part.
+
+Whether a part can test a term at all is measured by :func:`information_share`: the energy
+of the term's regressors per held-out row relative to per training row. Where it is ~0 the
+held-out part holds no information about the term, and the report says so instead of
+calling the term useless.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Contiguous blocks the fit part is cut into (an evenly spread share validates).
+BLOCKS = 20
+#: Fewest thinned rows in a block.
+MIN_BLOCK_ROWS = 5
+#: Held-out regressor energy per row below this share of the training one: no information.
+NO_INFORMATION = 1e-6
+#: A time step longer than this many median steps is a gap in the log.
+GAP_STEPS = 5.0
+
+
+@dataclass(frozen=True)
+class Split:
+    """Row indices (into the residual grid) of each part.
+
+    Attributes:
+        train: rows that fit the candidates during selection.
+        valid: rows that score the candidates during selection (interleaved blocks).
+        valid_block: block label of each ``valid`` row (tests keep blocks apart).
+        fit: train ∪ valid, in time order: the final fit of the chosen terms.
+        test: the outer held-out part (last usable rows).
+        t_split: time (s) between the fit part and the test part.
+    """
+
+    train: np.ndarray
+    valid: np.ndarray
+    valid_block: np.ndarray
+    fit: np.ndarray
+    test: np.ndarray
+    t_split: float
+
+
+def usable_rows(n: int, window: int, mask: np.ndarray, segment: np.ndarray | None
+                ) -> np.ndarray:
+    """Thinned grid rows away from the ends and gaps, with at least one unmasked channel.
+
+    Args:
+        n: grid length.
+        window: smoothing window (samples).
+        mask: (n, C) fit mask (1 usable, 0 masked).
+        segment: (n,) integer segment label per row (a new label after each gap), or None.
+    """
+    step, edge = max(1, window // 2), window
+    rows = np.arange(edge, n - edge, step)
+    if segment is not None and len(segment) == n:
+        seg = np.asarray(segment)
+        near = np.zeros(n, dtype=bool)
+        for b in np.flatnonzero(np.diff(seg) != 0):
+            near[max(0, b - edge + 1):b + edge + 1] = True
+        rows = rows[~near[rows]]
+    return rows[np.asarray(mask)[rows].any(axis=1)] if len(rows) else rows
+
+
+def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
+               train_fraction: float) -> Split:
+    """Split usable rows into training, validation (interleaved blocks) and outer test.
+
+    Args:
+        t: grid times (s).
+        rows: usable rows (:func:`usable_rows`), increasing.
+        segment: (n,) segment label per grid row, or None for one segment.
+        train_fraction: share of the usable rows before the outer test part, and share of
+            the blocks of that part that train.
+
+    Raises:
+        ValueError: too few usable rows for the three parts.
+    """
+    if not 0.0 < train_fraction < 1.0:
+        raise ValueError(f"train_fraction must be in (0, 1), got {train_fraction!r}")
+    k = int(round(train_fraction * len(rows)))
+    if k < 4 * MIN_BLOCK_ROWS or len(rows) - k < 10:
+        raise ValueError(f"recording too short: {len(rows)} usable rows (after masking and "
+                         "thinning) cannot be split into training, validation and test parts")
+    fit, test = rows[:k], rows[k:]
+    seg = np.zeros(len(t), dtype=np.int64) if segment is None or len(segment) != len(t) \
+        else np.asarray(segment)
+    size = max(MIN_BLOCK_ROWS, len(fit) // BLOCKS)
+    # a block ends every `size` rows and wherever the segment changes
+    labels = np.zeros(len(fit), dtype=np.int64)
+    block, count = 0, 0
+    for i in range(len(fit)):
+        if i and (count >= size or seg[fit[i]] != seg[fit[i - 1]]):
+            block, count = block + 1, 0
+        labels[i] = block
+        count += 1
+    nb = block + 1
+    n_valid = min(nb - 1, max(1, int(round((1.0 - train_fraction) * nb))))
+    chosen = np.unique(np.round((np.arange(n_valid) + 0.5) / n_valid * nb - 0.5).astype(int))
+    is_valid = np.isin(labels, chosen)
+    return Split(train=fit[~is_valid], valid=fit[is_valid], valid_block=labels[is_valid],
+                 fit=fit, test=test, t_split=float(0.5 * (t[fit[-1]] + t[test[0]])))
+
+
+def gap_segments(t_recorded: np.ndarray, t_grid: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Segment labels of grid rows from the recorded time stamps, and rows inside gaps.
+
+    The fallback when the prepared residual carries no ``segment`` array: a recorded time
+    step longer than :data:`GAP_STEPS` median steps is a gap; grid rows strictly inside it
+    were interpolated, not measured.
+
+    Args:
+        t_recorded: the recording's time stamps (s), increasing.
+        t_grid: the residual grid's times (s).
+
+    Returns:
+        (segment label per grid row, True for grid rows inside a gap).
+    """
+    tr = np.asarray(t_recorded, dtype=np.float64)
+    tg = np.asarray(t_grid, dtype=np.float64)
+    if tr.size < 3:
+        return np.zeros(tg.size, dtype=np.int64), np.zeros(tg.size, dtype=bool)
+    step = np.diff(tr)
+    gaps = np.flatnonzero(step > GAP_STEPS * float(np.median(step)))
+    seg = np.searchsorted(tr[gaps + 1], tg, side="right").astype(np.int64)
+    inside = np.zeros(tg.size, dtype=bool)
+    for g in gaps:
+        inside |= (tg > tr[g]) & (tg < tr[g + 1])
+    return seg, inside
+
+
+def information_share(regressors: np.ndarray, held_out: np.ndarray, train: np.ndarray
+                      ) -> float:
+    """Largest held-out/training ratio of regressor energy per row, over a term's regressors.
+
+    Args:
+        regressors: (N, C, k) regressors of one term on the grid (any units).
+        held_out: held-out rows.
+        train: training rows.
+
+    Returns:
+        max over regressors of (mean square on held-out rows)/(mean square on training
+        rows); inf when a regressor is zero on the training rows but not held out, 1.0 when
+        every regressor is zero on both (nothing to test either way).
+    """
+    x = np.asarray(regressors, dtype=np.float64)
+    if x.ndim == 2:
+        x = x[:, :, None]
+    best = 0.0
+    any_train = False
+    for j in range(x.shape[2]):
+        e_tr = float(np.mean(x[train, :, j] ** 2)) if len(train) else 0.0
+        e_ho = float(np.mean(x[held_out, :, j] ** 2)) if len(held_out) else 0.0
+        if e_tr > 0:
+            any_train = True
+            best = max(best, e_ho / e_tr)
+        elif e_ho > 0:
+            return float("inf")
+    return best if any_train else 1.0

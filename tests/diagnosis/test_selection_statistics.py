@@ -1,0 +1,242 @@
+"""Selection statistics (issue 13): usable-row split, held-out tests with an honest floor,
+"cannot test", per-channel ranking, joint identifiability, sign-flipping offsets, signed
+corrections."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simgap.diagnosis.effects import Effect
+from simgap.diagnosis.fit import Fitter, Term
+from simgap.diagnosis.residual import Smoother
+
+N = 6000
+DT = 0.01
+
+
+class Fake:
+    """A bare adapter: rows carry their index, effects read closure arrays by index."""
+
+    smoother = Smoother(5, DT)
+
+    def __init__(self, channels=("c",), rates=None):
+        self.t = np.arange(N) * DT
+        self.channels = channels
+        self._rates = rates or {}
+
+    def rows(self, idx):
+        return {"i": np.asarray(idx)}
+
+    zero_derivatives = staticmethod(lambda sig: sig)
+
+    def locate_variables(self):
+        return {k: (v, "rad/s") for k, v in self._rates.items()}
+
+
+def _effect(name, reg, lower=-np.inf, channels=1, index=0):
+    """A one-parameter effect whose regressor is ``reg`` (read by row index)."""
+    def fn(lin, nl, sig, i, sys):
+        out = np.zeros((len(sig["i"]), channels))
+        out[:, index if i is None else i] = lin[0] * reg[sig["i"]]
+        return out
+    return Effect(name=name, label=name, scope="joint", lin=("a",), lin_units=("-",),
+                  lin_lower=(lower,), fn=fn)
+
+
+def test_split_uses_usable_rows_and_interleaves_validation():
+    """A decaying log whose late part is masked: the split is on usable rows (main: 70 % of
+    the time, which left a test part with nothing to test), validation blocks are spread
+    over the fit part, and no row sits within a filter window of a gap."""
+    from simgap.diagnosis import validation
+
+    t = np.arange(N) * DT
+    mask = np.ones((N, 1))
+    mask[int(0.6 * N):] = 0.0                    # the decay has stopped: all masked
+    seg = (t > 20.0).astype(int)                 # a gap at 20 s
+    rows = validation.usable_rows(N, 5, mask, seg)
+    assert rows.max() < 0.6 * N
+    assert not np.any(np.abs(t[rows] - 20.0) < 5 * DT)
+    sp = validation.split_rows(t, rows, seg, 0.7)
+    assert len(sp.test) >= 0.25 * len(rows) and np.all(mask[sp.test, 0] == 1)
+    assert t[sp.valid].min() < 0.25 * t[sp.fit].max() < 0.75 * t[sp.fit].max() < \
+        t[sp.valid].max()
+    # no validation block straddles the gap
+    for b in np.unique(sp.valid_block):
+        assert len(np.unique(seg[sp.valid[sp.valid_block == b]])) == 1
+    assert set(sp.train) | set(sp.valid) == set(sp.fit)
+
+
+def test_small_real_effect_named_beside_a_large_unexplained_channel():
+    """Per-channel floors: channel 1 holds a small real effect, channel 0 a large structure
+    error no candidate explains. Summed SSE (main) hid the effect under channel 0's error;
+    each channel scaled by its own remaining error names it."""
+    rng = np.random.default_rng(1)
+    x = np.sin(0.9 * np.arange(N) * DT) + 0.5 * np.sin(2.9 * np.arange(N) * DT)
+    walk = np.cumsum(rng.normal(0, 1.0, N))
+    r = np.column_stack([30.0 * (walk - walk.mean()) / walk.std(),
+                         0.4 * x + rng.normal(0, 0.1, N)])
+    sysm = Fake(channels=("c0", "c1"))
+    term = Term(_effect("small", x, channels=2, index=1), 1, "c1")
+    sel = Fitter(sysm, r, np.array([0.1, 0.1])).select([term])
+    assert [t.label for t in sel.fit.terms] == ["small@c1"]
+    assert abs(sel.fit.lin[0][0] - 0.4) < 0.05
+    (entry,) = sel.tried
+    assert entry["decision"] == "named" and entry["p_value"] < 1e-3
+    assert 0 < entry["gain"] <= 1 and entry["test"].startswith("held-out")
+
+
+def test_pure_noise_names_nothing_and_says_why():
+    rng = np.random.default_rng(2)
+    x = np.sin(0.9 * np.arange(N) * DT)
+    r = rng.normal(0, 0.1, (N, 1))
+    sel = Fitter(Fake(), r, np.array([0.1])).select([Term(_effect("e", x), 0, "c")])
+    assert sel.fit.terms == []
+    (entry,) = sel.tried
+    assert entry["decision"] == "rejected" and "not significant" in entry["reason"]
+    assert np.isfinite(entry["p_value"]) and entry["p_value"] > 1e-3
+
+
+def test_cannot_test_when_the_held_out_part_holds_no_information():
+    """A regressor that is zero on every validation block: "cannot test", not "useless"."""
+    rng = np.random.default_rng(3)
+    reg = np.zeros(N)
+    sysm = Fake()
+    r = rng.normal(0, 0.1, (N, 1))
+    fitter = Fitter(sysm, r, np.array([0.1]))
+    on = np.zeros(N, dtype=bool)
+    on[fitter.train] = True
+    for b in np.unique(fitter.split.valid_block):  # keep a window away from them
+        rows = fitter.valid[fitter.split.valid_block == b]
+        on[rows.min() - 10:rows.max() + 10] = False
+    reg[on] = 1.0
+    r[:, 0] += 0.5 * reg
+    fitter = Fitter(sysm, r, np.array([0.1]))
+    sel = fitter.select([Term(_effect("hidden", reg), 0, "c")])
+    (entry,) = sel.tried
+    assert entry["decision"] == "cannot test"
+    assert "holds no information about hidden" in entry["reason"]
+    assert sel.fit.terms == []
+
+
+def test_offset_whose_sign_follows_the_direction_is_demoted():
+    """r = 0.5·sign(v) (a Coulomb-like odd effect) on a motion that runs forward 87 % of the
+    time: a constant bias fits +0.34 and gains on held-out data (named on main), but fitted
+    on each direction it is +0.5 and −0.5: not a constant."""
+    rng = np.random.default_rng(4)
+    t = np.arange(N) * DT
+    v = np.sin(0.7 * t) + 0.9
+    r = (0.5 * np.sign(v) + rng.normal(0, 0.1, N))[:, None]
+    ones = np.ones(N)
+    sel = Fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
+        [Term(_effect("bias", ones), 0, "c")])
+    assert sel.fit.terms == []
+    (entry,) = sel.tried
+    assert entry["decision"] == "demoted" and "not a constant" in entry["reason"]
+    assert any("v > 0" in w["text"] for w in sel.warnings)
+
+
+def test_true_constant_offset_is_kept():
+    rng = np.random.default_rng(5)
+    t = np.arange(N) * DT
+    v = np.sin(0.7 * t) + 0.7
+    r = (0.3 + rng.normal(0, 0.1, N))[:, None]
+    sel = Fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
+        [Term(_effect("bias", np.ones(N)), 0, "c")])
+    assert [t.label for t in sel.fit.terms] == ["bias@c"]
+
+
+def test_jointly_unidentifiable_set_is_not_named_as_a_whole():
+    """Two terms whose regressors are proportional: the joint analysis drops one and names
+    the combination (pairwise checks of held-out contributions never saw the pair, since the
+    second term cannot gain after the first)."""
+    rng = np.random.default_rng(6)
+    x = np.sin(0.9 * np.arange(N) * DT)
+    r = (0.5 * x + rng.normal(0, 0.1, N))[:, None]
+    fitter = Fitter(Fake(), r, np.array([0.1]))
+    ta, tb = Term(_effect("a", x), 0, "c"), Term(_effect("b", 2.0 * x), 0, "c")
+    both = fitter.fit([ta, tb])
+    from simgap.diagnosis.fit import Selection
+    sel = Selection(fit=both)
+    kept = fitter._identify(both, sel, {})
+    assert len(kept.terms) == 1
+    assert sel.identifiability["combinations"]
+    assert "cannot be determined" in sel.warnings[0]["text"]
+
+
+def test_signed_nonlinear_correction_can_go_negative():
+    """A nonlinear parameter with bounds that include zero (a signed correction): main
+    fitted nonlinear parameters in log space and could not cross zero."""
+    rng = np.random.default_rng(7)
+    tt = np.arange(N) * DT
+    x = np.sin(0.9 * tt) + 0.4 * np.sin(2.3 * tt)
+
+    def fn(lin, nl, sig, i, sys):
+        return (np.tanh(nl[0] * 3.0 * x[sig["i"]]))[:, None]
+
+    eff = Effect(name="signed", label="signed", scope="joint", nl=("s",), nl_units=("-",),
+                 nl_bounds=((-1.0, 1.0),), nl_grid=((-0.8, -0.3, 0.3, 0.8),), fn=fn)
+    r = (np.tanh(-0.4 * 3.0 * x) + rng.normal(0, 0.05, N))[:, None]
+    sel = Fitter(Fake(), r, np.array([0.05])).select([Term(eff, 0, "c")])
+    assert [t.label for t in sel.fit.terms] == ["signed@c"]
+    assert abs(sel.fit.nl[0][0] + 0.4) < 0.03
+
+
+def test_friction_family_fitted_together_with_a_signed_viscous_correction():
+    """A nominal damping that is too high (a negative viscous correction) beside a missing
+    Coulomb friction, tuned so that Coulomb alone gains nothing: friction is tried as one
+    family, named in one round, with the viscous correction negative."""
+    rng = np.random.default_rng(8)
+    tt = np.arange(N) * DT
+    amp = 0.85
+    v = amp * np.sin(1.3 * tt)
+    fc = 0.3 * 2 * amp / np.pi          # Coulomb alone: Fc* = fc − 0.3·E|v| = 0
+    r = (-0.3 * v + fc * np.tanh(v / 0.01) + rng.normal(0, 0.02, N))[:, None]
+    coul = _effect("coulomb_friction", np.tanh(v / 0.01), lower=0.0)
+    visc = _effect("viscous_friction", v, lower=-0.5)
+    sel = Fitter(Fake(), r, np.array([0.02])).select(
+        [Term(coul, 0, "c"), Term(visc, 0, "c")])
+    fitted = {t.effect.name: float(lv[0]) for t, lv in zip(sel.fit.terms, sel.fit.lin,
+                                                           strict=True)}
+    assert set(fitted) == {"coulomb_friction", "viscous_friction"}
+    assert abs(fitted["viscous_friction"] + 0.3) < 0.03 and abs(fitted["coulomb_friction"] -
+                                                                fc) < 0.03
+    assert sel.history[0]["term"] == "coulomb_friction@c+viscous_friction@c"
+    assert {t["decision"] for t in sel.tried} == {"named"}
+
+
+def test_likelihood_ratio_holds_its_level_on_correlated_noise():
+    """Under "no gain" (a useless term fitted on other data, autocorrelated errors) the
+    held-out test rejects at most about its level; a real gain is found."""
+    from scipy.signal import lfilter
+
+    from simgap.diagnosis.significance import likelihood_ratio
+
+    rng = np.random.default_rng(9)
+    n, hits = 400, 0
+    x = np.sin(np.arange(n) * 0.05)
+    for _ in range(300):
+        e0 = lfilter([1.0], [1.0, -0.8], rng.normal(0, 1.0, n))
+        delta = rng.normal(0, 3.0 / np.sqrt(n))      # training error of a useless term
+        hits += likelihood_ratio(e0, e0 - delta * x, 1).p_value < 0.01
+    assert hits <= 6
+    e0 = lfilter([1.0], [1.0, -0.8], rng.normal(0, 1.0, n)) + 0.8 * x
+    res = likelihood_ratio(e0, e0 - 0.8 * x, 1)
+    assert res.testable and res.p_value < 1e-3 and 0 < res.share_removed < 1
+    short = likelihood_ratio(e0[:8], e0[:8] - 0.8 * x[:8], 1)
+    assert not short.testable and "effective samples" in short.reason
+
+
+def test_rows_interpolated_across_a_gap_are_found_from_the_time_stamps():
+    """Without a segment array from the signals, the recorded time stamps give the gaps:
+    grid rows inside one are marked (never fitted) and the segments change across it."""
+    from simgap.diagnosis.validation import gap_segments
+
+    t_rec = np.concatenate([np.arange(0, 10, 0.01), np.arange(15, 20, 0.01)])
+    t_grid = np.arange(0, 19.995, 0.01)
+    seg, inside = gap_segments(t_rec, t_grid)
+    assert inside.sum() == pytest.approx(499, abs=2)
+    assert np.all((t_grid[inside] > 9.99) & (t_grid[inside] < 15.0))
+    assert seg[t_grid < 9.995].max() == 0 and seg[t_grid >= 15.0].min() == 1
+    jitter = np.sort(np.arange(0, 10, 0.01) + np.random.default_rng(0).normal(0, 0.002, 1000))
+    assert not gap_segments(jitter, t_grid[:1000])[1].any()
