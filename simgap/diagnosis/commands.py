@@ -197,7 +197,7 @@ def register(app: typer.Typer) -> None:
             with stage(f"recording {out.name} ({model}, {len(effects)} hidden effect(s))"):
                 rec = generate(model, effects, name=out.name, **kwargs)
                 with output_files(targets) as tmps:
-                    write_recording(tmps[0], rec.columns)
+                    write_recording(tmps[0], rec.columns, overwrite=True)  # our temp
                     if truth:
                         tmps[1].write_text(json.dumps(rec.meta, indent=2), encoding="utf-8")
         except (SimgapError, ValueError) as err:
