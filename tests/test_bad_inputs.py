@@ -134,6 +134,11 @@ def test_bicycle_units(tmp_path):
     diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6), "'vx'", "km/h", model="bicycle")
     diagnose_bad(tmp_path, d.assign(delta_f=np.degrees(d.delta_f) * 20), "'delta_f'",
                  "degrees", model="bicycle")
+    # no position/velocity pair here: the time unit is named by the model's time scale
+    for factor, unit in ((1e3, "milliseconds"), (1e6, "microseconds")):
+        line = diagnose_bad(tmp_path, d.assign(t=d.t * factor), "'t'", unit, "fastest mode",
+                            model="bicycle")
+        assert "time constant" in line
 
 
 @pytest.mark.parametrize("vx, effect", [(8.0, []), (12.0, ["tire_saturation:mu=0.9"]),
