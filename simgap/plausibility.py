@@ -73,9 +73,9 @@ MAX_DT_RATE = math.pi
 #: A unit hypothesis must leave this many times less of the derivative unexplained ...
 HYPOTHESIS_GAIN = 2.0
 #: ... and itself leave at most this share (RMS) unexplained (a reading under which the
-#: model still fails is no evidence for it). Missing physics (friction, saturation, lag)
-#: leaves 0.5–2 unexplained in the right units; the wrong units of the generated logs
-#: leave 2.6–9 (see tests/test_bad_inputs.py).
+#: model still fails is no evidence for it). On generated bicycle logs at 8–30 m/s the
+#: right units leave 0.05 (no missing physics) to 2.4 (μ = 0.6 saturation at 8 m/s)
+#: unexplained, the same logs in km/h 2.6–9.
 HYPOTHESIS_FIT = 2.0
 #: Candidate speed units of a column the model reads in m/s: (factor to m/s, name).
 SPEED_UNITS = ((1 / 3.6, "km/h"), (0.44704, "mph"))
