@@ -153,8 +153,10 @@ def _run_ray(fn: Callable[..., Any], jobs: list[tuple], workers: int, address: b
             kwargs["num_cpus"] = workers
         try:
             ray_mod.init(**kwargs)
-        except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise SweepError(f"--ray: cannot start or join Ray ({exc})") from None
+        except Exception as exc:  # noqa: BLE001 - Ray raises a bare Exception on start-up
+            # time-outs (an overloaded machine), ConnectionError/RuntimeError otherwise
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise SweepError(f"--ray: cannot start or join Ray ({first})") from None
         started = True
     try:
         remote = ray_mod.remote(num_cpus=1)(_call)
