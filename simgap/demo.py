@@ -35,7 +35,7 @@ from simgap.envs.scenarios import (
     slalom,
     step_steer,
 )
-from simgap.outputs import output_folder
+from simgap.outputs import output_folder, write_file
 
 #: Seconds of simulated manipulator motion per scenario (two back-and-forth thesis cycles).
 MANIPULATOR_SECONDS = 8.0
@@ -176,8 +176,9 @@ def _demo_diagnosis(out: Path, seed: int, duration: float) -> list[Path]:
         report = diagnose(rec, "manipulator2dof")
         write_report(report, target)
         write_recording(target / "recording.csv", rec.columns)
-        (target / "recording.csv.truth.json").write_text(json.dumps(rec.meta, indent=2),
-                                                         encoding="utf-8")
+        truth = json.dumps(rec.meta, indent=2)
+        write_file(target / "recording.csv.truth.json",
+                   lambda tmp: tmp.write_text(truth, encoding="utf-8"))
     for text in summary_lines(report.data):
         log(f"diagnosis: {text.strip()}")
     return sorted(target.glob("*.png"))
@@ -197,8 +198,11 @@ def caption(relpath: str) -> str:
     raise KeyError(f"no caption for demo figure {relpath!r}")
 
 
-def write_index(out: Path, figures: list[Path]) -> Path:
-    """``out/index.html``: every figure, in order, under its one-line explanation."""
+def write_index(out: Path, figures: list[Path], *, overwrite: bool = False) -> Path:
+    """``out/index.html``: every figure, in order, under its one-line explanation.
+
+    An existing ``index.html`` is replaced only with ``overwrite=True``.
+    """
     items = []
     for p in figures:
         rel = Path(p).resolve().relative_to(Path(out).resolve()).as_posix()
@@ -219,7 +223,7 @@ def write_index(out: Path, figures: list[Path]) -> Path:
         + " · ".join(f'<a href="{r}">{t}</a>' for r, t in links) + "</p>",
         *items, "</body></html>", ""])
     path = Path(out) / "index.html"
-    path.write_text(page, encoding="utf-8")
+    write_file(path, lambda tmp: tmp.write_text(page, encoding="utf-8"), overwrite=overwrite)
     return path
 
 

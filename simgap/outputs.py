@@ -12,6 +12,11 @@ Two context managers, used by ``diagnose``, ``record``, ``reproduce`` and ``demo
 * :func:`output_files` for single files (a recording and its truth sidecar): each file goes
   to a temporary name beside its target and is linked into place without replacing anything
   (an existing file is refused, never overwritten).
+* :func:`write_file`, the same for one file written by a callable: what the API's writers
+  (:func:`~simgap.recordings.write_recording`, ``Identifier.save``,
+  :func:`~simgap.diagnosis.augmented.save_model`, ...) use. Their ``overwrite=True`` is the
+  only way to replace an existing file, and then by an atomic ``os.replace`` of a complete
+  temporary file (a reader sees the old file or the new one, never half of one).
 
 Nothing the user owns is renamed, hidden or deleted: the only things ever removed are the
 helper's own temporary files and a previous output whose marker lists all of its content.
@@ -23,7 +28,7 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -210,8 +215,14 @@ def output_folder(target: str | os.PathLike, *, kind: str, inputs: Sequence = ()
 
 
 def check_file_target(target: str | os.PathLike, *, inputs: Sequence = (),
-                      flag: str = "OUT") -> Path:
-    """Check that a new file may be written at ``target`` (never over an existing one).
+                      flag: str = "OUT", overwrite: bool = False) -> Path:
+    """Check that a file may be written at ``target``.
+
+    Args:
+        target: the file to write.
+        inputs: input files; writing over one is refused even with ``overwrite``.
+        flag: how the path is named in the message (``"OUT"``, ``"--out"``, ``"path"``).
+        overwrite: the caller's explicit opt-in to replace an existing regular file.
 
     Raises:
         OutputError: one line naming the path and why it is refused.
@@ -219,9 +230,15 @@ def check_file_target(target: str | os.PathLike, *, inputs: Sequence = (),
     dest = _abs(target)
     _check_inputs(dest, inputs, flag)
     if os.path.lexists(dest):
-        what = "a folder" if dest.is_dir() else "a file"
-        raise OutputError(f"{flag} {target}: {what} of that name exists; simgap never "
-                          "overwrites it, choose a new name or remove it yourself")
+        what = ("a folder" if dest.is_dir() else "a symbolic link" if dest.is_symlink()
+                else "a file" if dest.is_file() else "a special file")
+        if what != "a file":
+            raise OutputError(f"{flag} {target}: {what} of that name exists; simgap writes "
+                              "only regular files and never replaces anything else")
+        if not overwrite:
+            opt_in = ", or pass overwrite=True" if flag == "path" else ""
+            raise OutputError(f"{flag} {target}: {what} of that name exists; simgap never "
+                              f"overwrites it, choose a new name or remove it yourself{opt_in}")
     if not dest.parent.is_dir():
         raise OutputError(f"{flag} {target}: folder {dest.parent} does not exist")
     return dest
@@ -229,18 +246,21 @@ def check_file_target(target: str | os.PathLike, *, inputs: Sequence = (),
 
 @contextmanager
 def output_files(targets: Sequence[str | os.PathLike], *, inputs: Sequence = (),
-                 flag: str = "OUT") -> Iterator[list[Path]]:
+                 flag: str = "OUT", overwrite: bool = False) -> Iterator[list[Path]]:
     """Yield temporary paths beside ``targets``; link them into place on success.
 
     Each temporary path keeps its target's suffix (writers choose the format by it). An
     existing target is refused before the block runs, and again at the end without
     replacing it (hard links do not overwrite); on any failure all files written by this
-    call are removed and nothing else is touched.
+    call are removed and nothing else is touched. With ``overwrite=True`` an existing
+    regular file is replaced by ``os.replace`` (atomic per file; a replaced file is not
+    restored if a later target of the same call fails).
 
     Raises:
         OutputError: a target exists, its folder is missing, or the write failed.
     """
-    dests = [check_file_target(t, inputs=inputs, flag=flag) for t in targets]
+    dests = [check_file_target(t, inputs=inputs, flag=flag, overwrite=overwrite)
+             for t in targets]
     tmps: list[Path] = []
     placed: list[Path] = []
     try:
@@ -252,6 +272,10 @@ def output_files(targets: Sequence[str | os.PathLike], *, inputs: Sequence = (),
         yield list(tmps)
         for tmp, d in zip(tmps, dests, strict=True):
             os.chmod(tmp, 0o666 & ~_umask())
+            if overwrite and os.path.lexists(d):
+                check_file_target(d, inputs=inputs, flag=flag, overwrite=True)
+                os.replace(tmp, d)
+                continue  # the user's own opt-in: not rolled back
             try:
                 os.link(tmp, d)  # fails if d exists: never replaces anything
             except FileExistsError:
@@ -274,3 +298,26 @@ def output_files(targets: Sequence[str | os.PathLike], *, inputs: Sequence = (),
         raise
     for tmp in tmps:
         tmp.unlink(missing_ok=True)
+
+
+def write_file(path: str | os.PathLike, write: Callable[[Path], object], *,
+               overwrite: bool = False, inputs: Sequence = (), flag: str = "path") -> Path:
+    """Write one file atomically: ``write(tmp)`` fills a temporary file beside ``path``.
+
+    Args:
+        path: the file to write (its folder must exist).
+        write: called with the temporary path (same suffix as ``path``); may raise.
+        overwrite: replace an existing regular file (atomically); otherwise it is refused.
+        inputs: files that must not be written over, even with ``overwrite``.
+        flag: how the path is named in the error message.
+
+    Returns:
+        The absolute path written.
+
+    Raises:
+        OutputError: the path exists (without ``overwrite``), is a folder or link, its folder
+            is missing, or the write failed; nothing is left behind.
+    """
+    with output_files([path], inputs=inputs, flag=flag, overwrite=overwrite) as (tmp,):
+        write(tmp)
+    return _abs(path)

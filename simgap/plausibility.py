@@ -9,8 +9,13 @@ reason that can be stated:
 * **magnitude**: SI signals of the modelled systems never exceed :data:`MAX_ABS` in size,
   and a column whose largest value is below :data:`MIN_ABS` (but not zero) is a scale error;
 * **motion**: if every state column is constant there is nothing to diagnose;
-* **sample period**: the systems' dynamics live between :data:`DT_RANGE` (s); a period
-  outside it that lands inside once divided by 10³ or 10⁶ is time in ms or µs;
+* **sample period vs the model's time scale**: the nominal model is linearised at
+  :data:`RATE_POINTS` rows along the recording (:func:`model_rate`, median over the rows);
+  its fastest mode |λ|max (1/s)
+  must be resolved (Nyquist: dt |λ|max < π) and not be absurdly oversampled (dt |λ|max >
+  :data:`MIN_DT_RATE`). A period outside that which lands inside once divided by 10³, 10⁶ or
+  10⁹ is named as time in ms, µs or ns. A model with no intrinsic rate (pure inertia)
+  falls back to the declared :data:`DT_RANGE`;
 * **kinematic consistency** (mechanical systems with q and dq columns): the recorded
   velocity must be the time derivative of the recorded position; the least-squares ratio
   dq / (dq/dt) names degrees (57.3), ms time (10³) or a flipped sign (−1);
@@ -21,7 +26,18 @@ reason that can be stated:
   physics such as friction only ever adds effort the model does not need, never removes
   that much);
 * **bicycle ranges**: road-wheel steering above π/2 rad is degrees, vx above 70 m/s is
-  km/h (slower km/h logs are not caught by this range), a yaw rate above 2π rad/s is deg/s;
+  km/h, a yaw rate above 2π rad/s is deg/s (the model's declared range of validity);
+* **unit hypotheses through the model** (bicycle, after filtering): vx enters the lateral
+  dynamics through the frame rotation −vx r and the slip angles, so a speed logged in km/h
+  (or mph) at any speed makes the nominal model explain the recorded (dvy, dr) far worse
+  than the same log read in m/s. :func:`check_unit_hypotheses` compares the share of the
+  recorded derivative the model leaves unexplained as recorded and under each candidate unit,
+  and names the unit when it explains the data :data:`HYPOTHESIS_GAIN` × better (and leaves
+  under :data:`HYPOTHESIS_FIT` unexplained). On every generated m/s log tried (8–30 m/s,
+  with and without missing tire physics) both wrong readings were worse than the right one,
+  so the test did not fire on a correct log; strong missing physics at low speed (tire
+  saturation μ = 0.6 or a 0.1 s steering lag at 8 m/s) can hide a km/h log from it, since
+  the model then fails under every reading;
 * **steering consistency** (bicycle): the yaw rate against the kinematic yaw rate
   vx δ_f / L of the recorded steering; a correlated ratio below 0 is a flipped steering
   sign, outside 1/30..30 a unit factor;
@@ -36,7 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -47,8 +63,24 @@ from simgap.errors import DiagnosisError, RecordingError
 MAX_ABS = 1e12
 #: A non-zero column whose largest |value| is below this is a scale error.
 MIN_ABS = 1e-30
-#: Plausible sample periods (s) of the modelled mechanical and vehicle systems.
+#: Declared sample-period range (s), used only for models with no intrinsic rate.
 DT_RANGE = (1e-5, 0.5)
+#: Below this dt |λ|max a recording has over 10⁵ samples per fastest time constant: a
+#: time column in the wrong unit, not a real sample rate.
+MIN_DT_RATE = 1e-5
+#: Rows along the recording at which the nominal model is linearised (median rate).
+RATE_POINTS = 9
+#: Nyquist: a mode of rate |λ| (1/s) needs dt |λ| < π to be resolved at all.
+MAX_DT_RATE = math.pi
+#: A unit hypothesis must leave this many times less of the derivative unexplained ...
+HYPOTHESIS_GAIN = 2.0
+#: ... and itself leave at most this share (RMS) unexplained (a reading under which the
+#: model still fails is no evidence for it). On generated bicycle logs at 8–30 m/s the
+#: right units leave 0.05 (no missing physics) to 2.4 (μ = 0.6 saturation at 8 m/s)
+#: unexplained, the same logs in km/h 2.6–9.
+HYPOTHESIS_FIT = 2.0
+#: Candidate speed units of a column the model reads in m/s: (factor to m/s, name).
+SPEED_UNITS = ((1 / 3.6, "km/h"), (0.44704, "mph"))
 #: Accepted ratio of a non-zero parameter override to the nominal value.
 PARAM_RATIO = 1e3
 #: |ratio| beyond which a kinematic or effort ratio is a unit error (not noise or friction).
@@ -105,10 +137,79 @@ def check_motion(name: str, columns: Mapping[str, np.ndarray], states: Sequence[
                              "shows no motion, so there is nothing to diagnose")
 
 
-def check_sample_period(name: str, t: np.ndarray, time: str = "t") -> None:
-    """Refuse a median sample period outside :data:`DT_RANGE`, naming ms/µs when it fits."""
+def model_rate(system: Any, columns: Mapping[str, np.ndarray]) -> float | None:
+    """Fastest rate |λ|max (1/s) of the nominal model linearised along the recording.
+
+    Mechanical adapters: x = (q, dq), dx/dt = (dq, M(q)⁻¹(−bias(q, dq))) at zero input,
+    differentiated by central differences. Bicycle adapters: the eigenvalues of A(vx) (thesis
+    eq. 2.7) at the recorded speed. The rate is the median over :data:`RATE_POINTS` rows
+    spread over the recording (one odd pose, e.g. where gravity's gradient vanishes, does
+    not decide). Returns None when the model has no intrinsic rate (pure inertia) or cannot
+    be evaluated.
+    """
+    cols = getattr(system, "columns", None)
+    if cols is None:
+        return None
+    n = len(next(iter(columns.values())))
+    rows = np.unique(np.linspace(0, n - 1, RATE_POINTS).astype(int))
+    rates = []
+    for k in rows:
+        point = {c: float(v[k]) for c, v in columns.items()}
+        try:
+            if getattr(cols, "vx", None) and hasattr(getattr(system, "params", None), "C_af"):
+                from simgap.models.bicycle import system_matrices
+
+                a = system_matrices(system.params, max(point[cols.vx], 1.0 + 1e-6))[0]
+            elif hasattr(system, "mass") and hasattr(system, "inverse_dynamics"):
+                a = _mechanical_jacobian(system, point)
+            else:
+                return None
+            rates.append(float(np.max(np.abs(np.linalg.eigvals(a)))))
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, TypeError, KeyError,
+                IndexError):
+            continue
+    rates = [r for r in rates if math.isfinite(r)]  # rows in a gap (NaN) give no evidence
+    rate = float(np.median(rates)) if rates else math.nan
+    return rate if math.isfinite(rate) and rate > 1e-9 else None
+
+
+def _mechanical_jacobian(system: Any, point: Mapping[str, float]) -> np.ndarray:
+    cols = system.columns
+    q0 = np.array([point[c] for c in cols.q])
+    dq0 = np.array([point[c] for c in cols.dq]) if cols.dq else np.zeros_like(q0)
+    n = q0.size
+
+    def f(x: np.ndarray) -> np.ndarray:
+        q, dq = x[None, :n], x[None, n:]
+        bias = system.inverse_dynamics(q, dq, np.zeros_like(q))[0]
+        return np.concatenate([x[n:], np.linalg.solve(system.mass(q)[0], -bias)])
+
+    x0 = np.concatenate([q0, dq0])
+    jac = np.empty((2 * n, 2 * n))
+    for i in range(2 * n):
+        h = 1e-6 * max(1.0, abs(x0[i]))
+        e = np.zeros(2 * n)
+        e[i] = h
+        jac[:, i] = (f(x0 + e) - f(x0 - e)) / (2 * h)
+    return jac
+
+
+def check_sample_period(name: str, t: np.ndarray, time: str = "t",
+                        rate: float | None = None) -> None:
+    """The median sample period against the model's fastest rate ``rate`` (1/s).
+
+    With a rate the plausible periods are MIN_DT_RATE/rate .. π/rate (resolved at all, not
+    absurdly oversampled); without one, :data:`DT_RANGE`. A period that lands inside once
+    divided by 10³, 10⁶ or 10⁹ is named as ms, µs or ns.
+    """
     dt = float(np.median(np.diff(t)))
-    lo, hi = DT_RANGE
+    if rate:
+        lo, hi = MIN_DT_RATE / rate, MAX_DT_RATE / rate
+        why = (f"the nominal model's fastest mode (|λ| = {rate:.3g} 1/s, time constant "
+               f"{1 / rate:.3g} s) needs {lo:.3g}–{hi:.3g} s")
+    else:
+        lo, hi = DT_RANGE
+        why = f"outside the declared {lo:g}–{hi:g} s of this model (it has no intrinsic rate)"
     if lo <= dt <= hi:
         return
     hint = ""
@@ -116,8 +217,44 @@ def check_sample_period(name: str, t: np.ndarray, time: str = "t") -> None:
         if lo <= dt / f <= hi:
             hint = f"; is {time!r} in {unit}? (convert it to seconds)"
             break
-    raise RecordingError(f"{name}: column {time!r}: median sample period {dt:.3g} s is outside "
-                         f"the plausible {lo:g}–{hi:g} s for this model's dynamics{hint}")
+    raise RecordingError(f"{name}: column {time!r}: median sample period {dt:.3g} s is "
+                         f"implausible: {why}{hint}")
+
+
+def unexplained(measured: np.ndarray, predicted: np.ndarray) -> float:
+    """Share (RMS) of a measured derivative the model leaves unexplained, mean over states."""
+    num = np.mean((measured - predicted) ** 2, axis=0)
+    den = np.maximum(np.mean(measured**2, axis=0), np.finfo(float).tiny)
+    return float(np.mean(np.sqrt(num / den)))
+
+
+def check_unit_hypotheses(name: str, column: str, unit: str,
+                          hypotheses: Sequence[tuple[float, str]],
+                          misfit: Callable[[float], float]) -> None:
+    """Name a column's unit when the nominal model explains the data far better in it.
+
+    Args:
+        name: recording name.
+        column: the column under test.
+        unit: the SI unit the model reads it in (e.g. ``"m/s"``).
+        hypotheses: (factor to the SI unit, unit name) of each candidate unit.
+        misfit: share of the recorded derivative the nominal model leaves unexplained when
+            the column is multiplied by the factor (:func:`unexplained`); 1.0 = as recorded.
+
+    Raises:
+        RecordingError: a candidate unit leaves :data:`HYPOTHESIS_GAIN` × less unexplained
+            than the recording as it is, and at most :data:`HYPOTHESIS_FIT`.
+    """
+    base = misfit(1.0)
+    if not math.isfinite(base):
+        return
+    scored = [(misfit(f), f, what) for f, what in hypotheses]
+    best, f, what = min(scored, key=lambda s: s[0] if math.isfinite(s[0]) else math.inf)
+    if math.isfinite(best) and best <= HYPOTHESIS_FIT and best * HYPOTHESIS_GAIN <= base:
+        raise RecordingError(f"{name}: column {column!r}: the nominal model leaves "
+                             f"{base:.0%} of the recorded motion unexplained reading it in "
+                             f"{unit}, {best:.0%} reading it in {what}; likely {what} — "
+                             f"convert to {unit} (× {f:.4g}, i.e. ÷ {1 / f:.4g})")
 
 
 def _ratio(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -266,7 +403,7 @@ def check_recording(rec: Any, system: Any) -> None:
     check_magnitudes(rec.name, data, time)
     if cols is None:
         return
-    check_sample_period(rec.name, data[time], time)
+    check_sample_period(rec.name, data[time], time, model_rate(system, data))
     states = tuple(cols.q) + tuple(cols.dq or ())
     check_motion(rec.name, data, states)
     if getattr(cols, "vx", None):  # the bicycle family: states (vy, r), steering inputs
@@ -283,8 +420,29 @@ def check_recording(rec: Any, system: Any) -> None:
 def check_prepared(rec: Any, system: Any) -> None:
     """Checks on the prepared adapter: recorded effort vs the nominal model's need."""
     sig = getattr(system, "sig", None)
+    if sig is not None and {"vy", "r", "dvy", "dr", "vx", "delta_f"} <= set(sig) \
+            and hasattr(getattr(system, "params", None), "C_af"):
+        check_speed_unit(rec.name, sig, system.params, system.columns.vx)
+        return
     inverse = getattr(system, "inverse_dynamics", None)
     if sig is None or inverse is None or "ddq" not in sig:
         return
     check_effort(rec.name, sig["u"], inverse(sig["q"], sig["dq"], sig["ddq"]),
                  system.columns.u)
+
+
+def check_speed_unit(name: str, sig: Mapping[str, np.ndarray], params: Any, column: str) -> None:
+    """Bicycle: is the speed column in m/s? (vx in −vx r and the slip angles, eq. 2.7)."""
+    from simgap.models.bicycle import MIN_VX, state_derivative
+
+    x = np.stack([sig["vy"], sig["r"]], axis=1)
+    u = np.stack([sig["delta_f"], sig.get("delta_r", np.zeros_like(sig["delta_f"]))], axis=1)
+    dx = np.stack([sig["dvy"], sig["dr"]], axis=1)
+
+    def misfit(f: float) -> float:
+        vx = sig["vx"] * f
+        if np.any(vx <= MIN_VX):
+            return math.nan  # the model is not defined at this speed: no evidence
+        return unexplained(dx, state_derivative(x, u, params, vx))
+
+    check_unit_hypotheses(name, column, "m/s", SPEED_UNITS, misfit)

@@ -31,7 +31,6 @@ from __future__ import annotations
 import csv
 import json
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +42,7 @@ import pandas as pd
 
 from simgap.errors import ColumnMapError, RecordingError
 from simgap.limits import check_recording_file
+from simgap.outputs import write_file
 from simgap.schema import RecordingSchema
 
 #: Fewest samples any diagnosis can say something about.
@@ -220,14 +220,9 @@ def recording_from_arrays(name: str, data: Mapping[str, np.ndarray], columns: Se
                      meta=dict(meta or {}))
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def write_recording(path: str | os.PathLike, data: Mapping[str, np.ndarray] | pd.DataFrame,
-                    columns: Sequence[str] | None = None, float_format: str = "%.9g") -> Path:
+                    columns: Sequence[str] | None = None, float_format: str = "%.9g", *,
+                    overwrite: bool = False) -> Path:
     """Write a recording atomically as CSV or Parquet (by extension).
 
     Args:
@@ -235,9 +230,16 @@ def write_recording(path: str | os.PathLike, data: Mapping[str, np.ndarray] | pd
         data: columns (``t`` first in the output).
         columns: columns to write, in order (default: all, ``t`` first).
         float_format: CSV number format (9 significant digits keep float32-level detail).
+        overwrite: replace an existing file (atomically); without it an existing file is
+            refused and left untouched.
 
     Returns:
         The written path.
+
+    Raises:
+        RecordingError: unknown file type.
+        OutputError: ``path`` exists (without ``overwrite``), is a folder, or its folder is
+            missing (:func:`simgap.outputs.write_file`); nothing half-written is left.
     """
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
@@ -247,18 +249,14 @@ def write_recording(path: str | os.PathLike, data: Mapping[str, np.ndarray] | pd
     cols = list(columns) if columns is not None else (
         ["t"] + [c for c in frame.columns if c != "t"])
     frame = frame[cols]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+
+    def write(tmp: Path) -> None:
         if path.suffix.lower() == ".parquet":
             frame.to_parquet(tmp, index=False)
         else:
             frame.to_csv(tmp, index=False, float_format=float_format)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+
+    write_file(path, write, overwrite=overwrite)
     return path
 
 

@@ -20,8 +20,9 @@ from __future__ import annotations
 import multiprocessing
 import os
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -152,8 +153,10 @@ def _run_ray(fn: Callable[..., Any], jobs: list[tuple], workers: int, address: b
             kwargs["num_cpus"] = workers
         try:
             ray_mod.init(**kwargs)
-        except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise SweepError(f"--ray: cannot start or join Ray ({exc})") from None
+        except Exception as exc:  # noqa: BLE001 - Ray raises a bare Exception on start-up
+            # time-outs (an overloaded machine), ConnectionError/RuntimeError otherwise
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise SweepError(f"--ray: cannot start or join Ray ({first})") from None
         started = True
     try:
         remote = ray_mod.remote(num_cpus=1)(_call)
@@ -175,3 +178,16 @@ def _run_ray(fn: Callable[..., Any], jobs: list[tuple], workers: int, address: b
     finally:
         if started:
             ray_mod.shutdown()
+
+
+@contextmanager
+def progress_bar(total: int, label: str = "sweep") -> Iterator[Callable[[int, int], None]]:
+    """A progress bar over all jobs on stderr (rich); yields the ``progress`` callback."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn(label), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} jobs"), TimeElapsedColumn(),
+                  console=Console(stderr=True)) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda done, _total: bar.update(task, completed=done)

@@ -130,10 +130,69 @@ def test_bicycle_units(tmp_path):
     from simgap.diagnosis.generate import generate
 
     d = generate("bicycle", [], duration=6, seed=0, vx=25.0).to_frame()
-    # km/h is named when the speed exceeds 70 m/s (252 km/h); slower km/h logs pass the range
+    # above the model's declared range (70 m/s) by the range, below it by the model
     diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6), "'vx'", "km/h", model="bicycle")
     diagnose_bad(tmp_path, d.assign(delta_f=np.degrees(d.delta_f) * 20), "'delta_f'",
                  "degrees", model="bicycle")
+    # no position/velocity pair here: the time unit is named by the model's time scale
+    for factor, unit in ((1e3, "milliseconds"), (1e6, "microseconds")):
+        line = diagnose_bad(tmp_path, d.assign(t=d.t * factor), "'t'", unit, "fastest mode",
+                            model="bicycle")
+        assert "time constant" in line
+
+
+@pytest.mark.parametrize("vx, effect", [(8.0, []), (12.0, ["tire_saturation:mu=0.9"]),
+                                        (15.0, ["tire_saturation:mu=0.6"]),
+                                        (15.0, ["steering_lag:front_axle:tau=0.05"])])
+def test_slow_speed_in_kmh_is_named_through_the_model(tmp_path, vx, effect):
+    """18–68 km/h logs are inside any speed range: the lateral dynamics name the unit."""
+    from simgap.diagnosis.commands import parse_effect
+    from simgap.diagnosis.generate import generate
+
+    d = generate("bicycle", [parse_effect(e) for e in effect], duration=8, seed=2,
+                 vx=vx).to_frame()
+    assert d.vx.max() * 3.6 < 70
+    line = diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6), "'vx'", "km/h", "3.6",
+                        model="bicycle")
+    assert "unexplained" in line
+
+
+@pytest.mark.parametrize("vx", [8.0, 12.0, 30.0])
+def test_speed_in_m_s_passes_the_unit_hypotheses(vx):
+    """No false alarm: the same logs in m/s, with and without missing tire physics."""
+    from simgap import plausibility
+    from simgap.diagnosis.commands import parse_effect
+    from simgap.diagnosis.generate import generate
+    from simgap.diagnosis.pipeline import make_system
+    from simgap.recordings import recording_from_arrays
+
+    for effect in ([], ["tire_saturation:mu=0.6"], ["steering_lag:front_axle:tau=0.1"]):
+        rec = generate("bicycle", [parse_effect(e) for e in effect], duration=8, seed=3,
+                       vx=vx)
+        system = make_system("bicycle")
+        rec = recording_from_arrays("b.csv", rec.columns, system.columns.required)
+        plausibility.check_recording(rec, system)
+        system.prepare(rec)
+        plausibility.check_prepared(rec, system)
+
+
+def test_sample_period_bound_comes_from_the_model():
+    """The plausible dt follows the nominal model's fastest mode, not a fixed range."""
+    from simgap import plausibility
+    from simgap.diagnosis.pipeline import make_system
+
+    bike = make_system("bicycle")
+    fast = plausibility.model_rate(bike, {"vx": np.full(10, 2.0)})
+    slow = plausibility.model_rate(bike, {"vx": np.full(10, 30.0)})
+    assert fast > 5 * slow  # a slow bicycle's tires act faster (C/(m vx))
+    t = np.arange(100) * 0.1  # 10 Hz: resolves a 30 m/s bicycle, not a 2 m/s one
+    plausibility.check_sample_period("b.csv", t, "t", slow)
+    with pytest.raises(RecordingError, match="fastest mode"):
+        plausibility.check_sample_period("b.csv", t, "t", fast)
+    arm = make_system("manipulator2dof")
+    cols = {c: np.linspace(0.2, 1.0, 5) for c in ("q1", "q2", "dq1", "dq2")}
+    rate = plausibility.model_rate(arm, cols)
+    assert 1 < rate < 20  # gravity about the upright/hanging pose: seconds-scale modes
 
 
 def test_model_empty_and_params_out_of_range(arm, tmp_path):

@@ -164,3 +164,72 @@ def test_output_files_rolls_back_and_never_replaces(tmp_path):
         (tmp_path / "y.csv").write_text("theirs")
     assert (tmp_path / "y.csv").read_text() == "theirs"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv", "x.json", "y.csv"]
+
+
+# -- the API's writers: nothing of the user's is overwritten without overwrite=True -------
+def _writers(tmp_path):
+    """(name, suffix, write(path, **kw)) for every file writer of the package's API."""
+    import numpy as np
+
+    from simgap.demo import write_index
+    from simgap.diagnosis.augmented import AugmentedManipulator, save_model
+    from simgap.identifiers import BatchIdentifier, make_identifier
+    from simgap.recordings import write_recording
+
+    ident = make_identifier("integral", 4, 2, 0.002, seed=0)
+    batch = BatchIdentifier("integral", 2, 4, 2, 0.002)
+    model = AugmentedManipulator([])
+    rec = {"t": np.arange(3) * 0.1, "q1": np.ones(3)}
+    return [
+        ("write_recording", ".csv", lambda p, **kw: write_recording(p, rec, **kw)),
+        ("write_recording", ".parquet", lambda p, **kw: write_recording(p, rec, **kw)),
+        ("Identifier.save", ".npz", lambda p, **kw: ident.save(p, **kw)),
+        ("BatchIdentifier.save", ".npz", lambda p, **kw: batch.save(p, **kw)),
+        ("save_model", ".json", lambda p, **kw: save_model(model, p, **kw)),
+        ("write_index", ".html", lambda p, **kw: write_index(p.parent, [], **kw)),
+    ]
+
+
+def test_api_writers_never_overwrite_without_opt_in(tmp_path):
+    for k, (name, suffix, write) in enumerate(_writers(tmp_path)):
+        folder = tmp_path / f"w{k}"
+        folder.mkdir()
+        target = folder / ("index.html" if name == "write_index" else f"out{suffix}")
+        target.write_bytes(b"the user's precious file")
+        before = snapshot(folder)
+        with pytest.raises(OutputError, match=r"exists.*overwrite=True") as err:
+            write(target)
+        assert str(target) in str(err.value) and "\n" not in str(err.value), name
+        assert snapshot(folder) == before, name  # untouched, no temporary left behind
+        write(target, overwrite=True)  # the explicit opt-in replaces it, atomically
+        assert target.read_bytes() != b"the user's precious file", name
+        assert sorted(p.name for p in folder.iterdir()) == [target.name], name
+        # a folder of that name is never replaced, even with the opt-in
+        (folder / "sub").mkdir()
+        sub = folder / "sub" / target.name
+        sub.mkdir()
+        with pytest.raises(OutputError, match="folder of that name"):
+            write(sub, overwrite=True)
+
+
+def test_api_writer_failing_midway_leaves_nothing(tmp_path, monkeypatch):
+    """A write that fails half-way leaves neither a partial file nor a temporary one."""
+    import pandas as pd
+
+    from simgap.recordings import write_recording
+
+    def boom(self, path, *a, **k):
+        with open(path, "w") as fh:
+            fh.write("t,q1\n0.0,")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", boom)
+    with pytest.raises(OutputError, match="new.csv.*No space left"):
+        write_recording(tmp_path / "new.csv", {"t": [0.0, 1.0]})
+    (tmp_path / "old.csv").write_text("old")
+    with pytest.raises(OutputError, match="old.csv"):
+        write_recording(tmp_path / "old.csv", {"t": [0.0, 1.0]}, overwrite=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.csv"]
+    assert (tmp_path / "old.csv").read_text() == "old"
+    with pytest.raises(OutputError, match="does not exist"):
+        write_recording(tmp_path / "missing" / "a.csv", {"t": [0.0]})

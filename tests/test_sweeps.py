@@ -54,3 +54,18 @@ def test_bad_options_are_one_line_errors():
     for bad in ("a", "3-1", "-2", "1-", "0-999999"):
         with pytest.raises(SweepError, match="--seeds"):
             parse_seeds(bad)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="extra 'ray' not installed")
+def test_ray_start_up_failure_is_one_line(monkeypatch):
+    """Ray raises a bare Exception when its node times out at start-up (overloaded machine)."""
+    import ray
+
+    def timeout(**kwargs):
+        raise Exception("The current node timed out during startup. This could happen\n...")
+
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", timeout)
+    with pytest.raises(SweepError, match=r"^--ray: cannot start or join Ray \(The current node "
+                       r"timed out during startup. This could happen\)$"):
+        run_jobs(seeded_job, JOBS, workers=2, ray=True)

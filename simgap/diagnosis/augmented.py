@@ -44,6 +44,7 @@ from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative
 from simgap.models.effects import EffectInstance, Plant, PlantSchema
 from simgap.models.friction import FrictionParams
 from simgap.models.tires import MagicFormulaTire, magic_formula
+from simgap.outputs import write_file
 
 JOINTS = man.JOINTS
 AXLES = bic.AXLES
@@ -311,10 +312,16 @@ class AugmentedMechanical(MechanicalNominalModel):
         return np.concatenate([dq, ddq])
 
 
-def save_model(model: AugmentedManipulator | AugmentedBicycle, path: str | os.PathLike) -> Path:
-    """Write the augmented model's JSON (see the module docstring)."""
+def save_model(model: AugmentedManipulator | AugmentedBicycle, path: str | os.PathLike, *,
+               overwrite: bool = False) -> Path:
+    """Write the augmented model's JSON (see the module docstring), atomically.
+
+    An existing file is replaced only with ``overwrite=True``; otherwise
+    :class:`~simgap.errors.OutputError` names it and nothing is written.
+    """
     path = Path(path)
-    path.write_text(json.dumps(model.to_dict(), indent=2), encoding="utf-8")
+    text = json.dumps(model.to_dict(), indent=2)
+    write_file(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), overwrite=overwrite)
     return path
 
 

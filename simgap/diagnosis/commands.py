@@ -17,6 +17,10 @@ from simgap.errors import SimgapError
 from simgap.outputs import check_file_target, check_folder_target, output_files
 
 EXIT_BAD_INPUT = 2
+#: Exit status of ``diagnose LOG...`` when some logs failed (the others' reports are kept).
+EXIT_SOME_FAILED = 1
+#: Default output folder of ``diagnose`` with several logs.
+DIAGNOSE_BATCH_OUT = Path("simgap-report") / "diagnose"
 
 
 def _fail(msg: str) -> None:
@@ -38,6 +42,29 @@ def _load_params(path: Path | None) -> dict | None:
     if not isinstance(data, dict):
         _fail(f"{path}: expected a JSON object of parameter overrides like {{\"m\": 2.5}}")
     return data
+
+
+def _diagnose_batch(out: Path, recordings: list[Path], model: str, overrides: dict | None,
+                    columns: Path | None, figures: bool, jobs: int, ray: bool | str,
+                    inputs: tuple) -> None:
+    """``diagnose LOG1 LOG2 ...``: one job per log, then OUT/summary.{json,md}."""
+    from simgap._log import log
+    from simgap.diagnosis.sweep import diagnose_batch
+    from simgap.sweeps import progress_bar
+
+    try:
+        with progress_bar(len(recordings), "diagnose") as tick:
+            res = diagnose_batch(out, recordings, model, params=overrides, columns=columns,
+                                 figures=figures, jobs=jobs, ray=ray or None, inputs=inputs,
+                                 progress=tick)
+    except SimgapError as err:
+        _fail(str(err))
+    for f in res["failed"]:
+        log(f"failed: {f['recording']}: {f['error']}")
+    ok = len(recordings) - len(res["failed"])
+    typer.echo(f"{ok} of {len(recordings)} recordings diagnosed; summary: {out / 'summary.md'}")
+    if res["failed"]:
+        raise typer.Exit(EXIT_SOME_FAILED)
 
 
 def parse_effect(text: str):
@@ -69,7 +96,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def diagnose(
-        recording: Path = typer.Argument(..., help="Recording (.csv or .parquet)."),
+        recordings: list[Path] = typer.Argument(..., metavar="LOG...", help="Recording(s) "
+                                                "(.csv or .parquet). Several: one report "
+                                                "each plus OUT/summary.md (see --jobs)."),
         model: str = typer.Option(..., "--model", help="manipulator2dof, bicycle, "
                                   "path/to/model.py:NAME (see examples/README.md), or an "
                                   "MJCF robot.xml (needs the 'mujoco' extra)."),
@@ -80,15 +109,33 @@ def register(app: typer.Typer) -> None:
                                      "\"scale\", \"offset\", \"constant\", \"despike\"}; "
                                      "unnamed columns keep their names."),
         out: Path = typer.Option(None, "--out", help="Report folder (default "
-                                 "./simgap-report/<recording stem>/)."),
+                                 "./simgap-report/<recording stem>/; several logs: "
+                                 "./simgap-report/diagnose/)."),
         figures: bool = typer.Option(True, help="Write the PNG figures."),
+        jobs: int = typer.Option(1, "--jobs", min=1, help="Several logs: parallel jobs "
+                                 "(local processes, or Ray CPUs with --ray)."),
+        ray: bool = typer.Option(False, "--ray", help="Several logs: run on Ray (extra "
+                                 "'ray'): a local instance, or the cluster in RAY_ADDRESS "
+                                 "/ --ray-address."),
+        ray_address: str = typer.Option(None, "--ray-address", help="Join this Ray cluster "
+                                        "(implies --ray; 'auto' finds a running one)."),
     ) -> None:
-        """Locate and name the physics a recording has and the nominal model lacks."""
+        """Locate and name the physics a recording has and the nominal model lacks.
+
+        With several LOGs (or --jobs/--ray) each is diagnosed as one job into OUT/<stem>/ and
+        OUT/summary.md + summary.json tabulate them (default OUT ./simgap-report/diagnose/).
+        Exit status: 0 all diagnosed, 1 some logs failed (each named with its error in the
+        summary and on stderr; the others' reports are kept), 2 bad options or a log that
+        is missing or not a readable file (nothing run).
+        """
         # checked before the numerical modules are imported (seconds), one line each
         from simgap.limits import check_recording_file
 
+        batch = len(recordings) > 1 or jobs > 1 or ray or ray_address is not None
+        recording = recordings[0]
         try:  # missing, a folder, a FIFO or device, an overlong header: refused unopened
-            check_recording_file(recording)
+            for rec in recordings:
+                check_recording_file(rec)
         except SimgapError as err:
             _fail(str(err))
         if ":" in model and not Path(model.rsplit(":", 1)[0]).is_file():
@@ -98,29 +145,28 @@ def register(app: typer.Typer) -> None:
         from simgap._log import stage
         from simgap.diagnosis.pipeline import default_out_dir
 
-        target = out or default_out_dir(recording)
+        target = out or (DIAGNOSE_BATCH_OUT if batch else default_out_dir(recording))
         model_file = (model.rsplit(":", 1)[0] if ":" in model
                       else model if model.lower().endswith(".xml") else None)
-        inputs = (recording, params, columns, model_file)
+        inputs = (*recordings, params, columns, model_file)
         try:
             check_folder_target(target, inputs=inputs)
         except SimgapError as err:
             _fail(str(err))
-        from simgap.diagnosis.pipeline import diagnose as run
-        from simgap.diagnosis.report import summary_lines, write_report
-
         overrides = _load_params(params)
         if overrides and model_file is not None:
             _fail(f"{params}: --params applies to built-in models only; set the "
                   f"parameters in {model_file}")
+        if batch:
+            _diagnose_batch(target, recordings, model, overrides, columns, figures, jobs,
+                            ray_address or ray, (params, columns, model_file))
+            return
+        from simgap.diagnosis.report import summary_lines, write_report
+        from simgap.diagnosis.sweep import diagnose_any
+
         try:
             with stage(f"diagnosing {recording.name} against {model}"):
-                if model.lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
-                    from simgap.diagnosis.mujoco import diagnose_mjcf
-
-                    report = diagnose_mjcf(model, recording, columns=columns)
-                else:
-                    report = run(recording, model, overrides, columns=columns)
+                report = diagnose_any(recording, model, overrides, columns)
             with stage(f"writing the report to {target}"):
                 write_report(report, target, figures=figures, inputs=inputs)
         except SimgapError as err:
@@ -197,7 +243,7 @@ def register(app: typer.Typer) -> None:
             with stage(f"recording {out.name} ({model}, {len(effects)} hidden effect(s))"):
                 rec = generate(model, effects, name=out.name, **kwargs)
                 with output_files(targets) as tmps:
-                    write_recording(tmps[0], rec.columns)
+                    write_recording(tmps[0], rec.columns, overwrite=True)  # our temp
                     if truth:
                         tmps[1].write_text(json.dumps(rec.meta, indent=2), encoding="utf-8")
         except (SimgapError, ValueError) as err:

@@ -36,6 +36,7 @@ import numpy as np
 
 from simgap.errors import ModelError
 from simgap.models.mujoco import MujocoNominal, load_model
+from simgap.outputs import write_file
 
 NO_COUNTERPART = {
     "torque_bias": "a constant joint effort has no MJCF attribute; apply it as "
@@ -181,25 +182,22 @@ def corrected_mjcf(xml: str | Path, model: MujocoNominal, fitted: list[tuple],
     return head + prolog + ET.tostring(root, encoding="unicode") + "\n", notes
 
 
-def write_corrected_mjcf(report: Any, xml: str | Path, path: str | Path) -> list[str]:
+def write_corrected_mjcf(report: Any, xml: str | Path, path: str | Path, *,
+                         overwrite: bool = False) -> list[str]:
     """Write ``augmented_model.xml`` for a diagnosis report; return the notes.
 
-    The file is checked by compiling it with MuJoCo before it is moved into place.
+    The file is checked by compiling it with MuJoCo before it is moved into place
+    (:func:`simgap.outputs.write_file`; an existing file only with ``overwrite=True``, never
+    the input ``xml``).
     """
     system = report.system
     fitted = list(getattr(report.augmented, "fitted", []))
     points = {id(e): system.payload_points[id(e)] for e, *_ in fitted
               if id(e) in getattr(system, "payload_points", {})}
     text, notes = corrected_mjcf(xml, system.model, fitted, points)
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    try:
-        compile_text(text, Path(xml))
-    except ModelError:
-        tmp.unlink()
-        raise
-    tmp.replace(path)
+    compile_text(text, Path(xml))  # raises ModelError before anything is written
+    write_file(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), overwrite=overwrite,
+               inputs=(xml,))
     return notes
 
 

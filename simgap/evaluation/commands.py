@@ -81,22 +81,18 @@ def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
            ray: bool | str) -> None:
     """``reproduce --seeds``: every (seed, case) as one job, then OUT/summary.{json,md}."""
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from simgap._log import log
     from simgap.errors import SimgapError
     from simgap.evaluation.sweep import parse_cases, reproduce_sweep
-    from simgap.sweeps import parse_seeds
+    from simgap.sweeps import parse_seeds, progress_bar
 
     console = Console(stderr=True)
     try:
         seed_list, cases = parse_seeds(seeds), parse_cases(case)
-        with Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.completed}/"
-                      "{task.total} jobs"), TimeElapsedColumn(), console=console) as bar:
-            task = bar.add_task("sweep", total=len(seed_list) * len(cases))
+        with progress_bar(len(seed_list) * len(cases)) as tick:
             res = reproduce_sweep(out, seeds=seed_list, cases=cases, quick=quick, jobs=jobs,
-                                  ray=ray or None,
-                                  progress=lambda d, t: bar.update(task, completed=d))
+                                  ray=ray or None, progress=tick)
     except SimgapError as exc:
         console.print(f"error: {exc}", style="red", markup=False)
         raise typer.Exit(2) from None

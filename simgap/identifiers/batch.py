@@ -165,9 +165,9 @@ class BatchIdentifier(IdentifierBase):
         """Integral error states, (N, n)."""
         return self._z().copy()
 
-    def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write to ``path`` (.npz + JSON meta, no pickle)."""
-        return io.write_npz(path, self._meta(), self._arrays())
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+        """Write to ``path`` (.npz + JSON meta, no pickle); see :meth:`Identifier.save`."""
+        return io.write_npz(path, self._meta(), self._arrays(), overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> BatchIdentifier:

@@ -172,9 +172,13 @@ class Identifier(IdentifierBase):
         return bool(self._initialised()[0])
 
     # persistence ------------------------------------------------------------------
-    def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the identifier to ``path`` (.npz + JSON meta, no pickle); returns the path."""
-        return io.write_npz(path, self._meta(), self._arrays())
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+        """Write the identifier to ``path`` (.npz + JSON meta, no pickle); returns the path.
+
+        An existing file is replaced only with ``overwrite=True`` (atomically); otherwise
+        :class:`~simgap.errors.OutputError` names it and nothing is written.
+        """
+        return io.write_npz(path, self._meta(), self._arrays(), overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Identifier:

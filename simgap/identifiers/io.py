@@ -2,15 +2,16 @@
 
 No pickle: the file is read with ``numpy.load(..., allow_pickle=False)``; ``meta`` holds the
 kind, sizes, Δt, seed, :class:`~simgap.identifiers.IdentifierConfig`, frozen flag, step
-counters and the state of baseline 2's sampling Generator. Writes go to a temporary file
-in the same folder that replaces the target only when complete (nothing half-written).
+counters and the state of baseline 2's sampling Generator. Writes go through
+:func:`simgap.outputs.write_file`: a temporary file in the same folder that is moved into
+place only when complete (nothing half-written), and an existing file is replaced only with
+``overwrite=True``.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -19,23 +20,24 @@ import numpy as np
 
 from simgap.identifiers.core import FORMAT
 from simgap.identifiers.errors import IdentifierError
+from simgap.outputs import write_file
 
 
 def write_npz(path: str | os.PathLike[str], meta: dict[str, Any],
-              arrays: dict[str, np.ndarray]) -> Path:
-    """Atomically write ``arrays`` and ``meta`` (as JSON) to ``path``; returns the path."""
+              arrays: dict[str, np.ndarray], *, overwrite: bool = False) -> Path:
+    """Atomically write ``arrays`` and ``meta`` (as JSON) to ``path``; returns the path.
+
+    Raises:
+        OutputError: ``path`` exists (without ``overwrite``), is a folder, or its folder is
+            missing; nothing is left behind.
+    """
     path = Path(path)
-    if not path.parent.exists():
-        raise IdentifierError(f"cannot save identifier to {path}: folder {path.parent} "
-                              f"does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
             np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+
+    write_file(path, write, overwrite=overwrite)
     return path
 
 
