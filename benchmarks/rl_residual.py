@@ -92,9 +92,9 @@ def load_string() -> str:
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=6_000, help="env steps per run")
+    ap.add_argument("--steps", type=int, default=5_000, help="env steps per run")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
-    ap.add_argument("--eval-every", type=int, default=1_500,
+    ap.add_argument("--eval-every", type=int, default=1_250,
                     help="env steps between deterministic evaluations")
     ap.add_argument("--quick", action="store_true",
                     help="1 seed, 250 steps, 1 s episodes (the CI variant)")
@@ -116,7 +116,8 @@ def main(argv: list[str] | None = None) -> dict:
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"{name}.json"
     settings = {"algorithm": "SAC (stable-baselines3), MlpPolicy (64, 64), batch 128, "
-                             "1 gradient step per env step, torch 1 thread",
+                             "1 gradient step per env step, ent_coef auto from 0.01, "
+                             "learning_starts 500, torch 1 thread",
                 "env_id": RL_TASK_ID, "steps_per_run": steps, "seeds": seeds,
                 "eval_every": every, "eval_mus": list(eval_mus),
                 "task": {**task.__dict__, "mu_range": list(task.mu_range)},
