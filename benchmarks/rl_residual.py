@@ -1,14 +1,23 @@
-"""SAC with and without the identifier's ĝ in the observation (issue 6), equal budgets.
+"""SAC with and without the identifier's scaled ĝ in the observation, equal budgets (issue 14).
 
-Task: residual RL on top of the nominal-inverting yaw-rate controller, bicycle at 20 m/s,
-reference lateral acceleration near μ·g, μ ~ U(0.45, 0.9) per episode (simgap.control.rl).
-Writes ``rl_residual.json`` (per run: training episodes with the identifier's per-episode
-errors logged by Monitor(info_keywords=...), final deterministic returns on μ = 0.45, 0.6, 0.9
-and the base controller's returns) and ``rl_residual.png`` (learning curves, mean ± std over
-seeds). ``--smoke`` runs a few hundred steps per variant.
+Task: ``simgap/YawRateResidualRL-v0`` (simgap.control.rl): residual RL on top of the
+nominal-inverting yaw-rate controller, bicycle at 20 m/s, reference lateral acceleration near
+μ·g, μ ~ U(0.45, 0.9) per episode; action a ∈ [−1, 1] → δ_inv + 0.05 rad · a; observation
+(vy, r, r_ref, ṙ_ref) and, in the ``residual`` variant, ĝ divided by its running RMS
+(ResidualObservation's default ``scale="running"``, clipped to ±10). Both variants run the
+same online identifier (the task's kind, ``auto`` preset).
 
-Usage: .venv/bin/python benchmarks/rl_residual.py [--steps 15000] [--seeds 0 1 2] [--smoke]
-       (seeds in parallel: --seeds 0 1 --name a; --seeds 2 --name b; --merge out/a.json out/b.json)
+Per seed and variant: SAC for ``--steps`` env steps; every ``--eval-every`` steps the
+deterministic policy is evaluated on μ = 0.45 / 0.6 / 0.9 (one 4 s episode each, the
+identifier copied from the training env). Runs are interleaved (seed 0 plain, seed 0
+residual, seed 1 ...) and the JSON is rewritten after every run (``"complete": false`` until
+the last), so an interrupted job keeps balanced, usable results; ``--resume`` skips the runs
+already in it. Writes ``rl_residual.json`` and ``rl_residual.png`` (learning curves: mean
+over seeds with a 95 % t-interval band). Progress on stderr.
+
+Usage (one command; about 60 min on one core with the defaults, see docs/downstream.md):
+    nohup .venv/bin/python benchmarks/rl_residual.py > rl.log 2>&1 &
+    .venv/bin/python benchmarks/rl_residual.py --quick      # CI: 1 seed, a few hundred steps
 """
 
 from __future__ import annotations
@@ -17,86 +26,148 @@ import argparse
 import json
 import os
 import platform
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 
-def summarise(runs: list[dict], steps: int, seeds: list[int], wall_s: float) -> dict:
-    from simgap.control.rl import RL_INFO_KEYWORDS, VARIANTS, RLTask
+def summarise(runs: list[dict]) -> dict:
+    """Per variant: final deterministic returns (mean, 95 % CI, per seed), training tail,
+    identifier error; and a two-sided Mann-Whitney U test of the final returns."""
+    from scipy import stats
+
+    from simgap.control.rl import VARIANTS, mean_ci95
 
     summary: dict = {}
     for variant in VARIANTS:
-        finals = [r["final_return_mean"] for r in runs if r["variant"] == variant]
-        last = [float(np.mean([e["r"] for e in r["episodes"][-5:]])) for r in runs
-                if r["variant"] == variant and r["episodes"]]
-        err = [float(np.mean([e["residual_error_rms"] for e in r["episodes"]])) for r in runs
-               if r["variant"] == variant and r["episodes"]]
-        summary[variant] = {"final_return_mean": float(np.mean(finals)),
-                            "final_return_std": float(np.std(finals)),
-                            "per_seed": finals,
-                            "last5_train_return_mean": float(np.mean(last)) if last else None,
-                            "identifier_residual_error_rms": float(np.mean(err)) if err else None}
-    summary["base_controller_return_mean"] = float(np.mean(
-        [b for r in runs for b in r["base_returns"]]))
-    task = RLTask()
-    return {"benchmark": "rl_residual", "algorithm": "SAC", "steps_per_run": steps,
-            "seeds": seeds, "task": task.__dict__ | {"mu_range": list(task.mu_range)},
-            "eval_mus": runs[0]["eval_mus"] if runs else None,
-            "monitor_info_keywords": list(RL_INFO_KEYWORDS), "summary": summary,
-            "runs": runs, "wall_s": wall_s,
-            "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
-                        "note": "shared 2-core machine; timings are noisy"}}
+        rs = sorted((r for r in runs if r["variant"] == variant), key=lambda r: r["seed"])
+        if not rs:
+            continue
+        finals = np.array([r["final_return_mean"] for r in rs])
+        mean, half = mean_ci95(finals)
+        last = [float(np.mean([e["r"] for e in r["episodes"][-5:]])) for r in rs
+                if r["episodes"]]
+        err = [float(np.mean([e["residual_error_rms"] for e in r["episodes"]])) for r in rs
+               if r["episodes"]]
+        true = [float(np.mean([e["residual_true_rms"] for e in r["episodes"]])) for r in rs
+                if r["episodes"]]
+        per_mu = np.array([r["final_returns"] for r in rs]).mean(axis=0)
+        summary[variant] = {
+            "seeds": [r["seed"] for r in rs],
+            "final_return_mean": float(mean), "final_return_ci95": float(half),
+            "final_return_std": float(finals.std(ddof=1)) if len(finals) > 1 else 0.0,
+            "final_return_median": float(np.median(finals)),
+            "per_seed": finals.tolist(), "per_mu_mean": per_mu.tolist(),
+            "last5_train_return_mean": float(np.mean(last)) if last else None,
+            "identifier_residual_error_rms": float(np.mean(err)) if err else None,
+            "identifier_residual_true_rms": float(np.mean(true)) if true else None,
+            "wall_s_per_run": float(np.mean([r.get("wall_s", np.nan) for r in rs]))}
+    plain = [r["final_return_mean"] for r in runs if r["variant"] == "plain"]
+    resid = [r["final_return_mean"] for r in runs if r["variant"] == "residual"]
+    if len(plain) >= 2 and len(resid) >= 2:
+        u = stats.mannwhitneyu(resid, plain, alternative="two-sided")
+        summary["residual_vs_plain_mannwhitney_p"] = float(u.pvalue)
+    base = [b for r in runs for b in r["base_returns"]]
+    summary["base_controller_return_mean"] = float(np.mean(base)) if base else None
+    return summary
 
 
-def main() -> None:
+def write_json(path: Path, data: dict) -> None:
+    """Write ``data`` to ``path`` through a temporary file (never a half-written JSON)."""
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, path)
+
+
+def load_string() -> str:
+    try:
+        return subprocess.run(["uptime"], capture_output=True, text=True,
+                              check=False).stdout.strip()
+    except OSError:
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=15_000, help="env steps per run")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    ap.add_argument("--smoke", action="store_true", help="300 steps, one seed")
+    ap.add_argument("--steps", type=int, default=5_000, help="env steps per run")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    ap.add_argument("--eval-every", type=int, default=1_250,
+                    help="env steps between deterministic evaluations")
+    ap.add_argument("--quick", action="store_true",
+                    help="1 seed, 250 steps, 1 s episodes (the CI variant)")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the runs already in the output JSON (same settings)")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
-    ap.add_argument("--name", default=None, help="output file stem (default rl_residual)")
-    ap.add_argument("--merge", type=Path, nargs="+", default=None,
-                    help="combine the runs of earlier JSON outputs (e.g. seeds run in parallel)")
-    args = ap.parse_args()
-    from rich.progress import Progress
-
+    ap.add_argument("--name", default=None, help="output stem (default rl_residual)")
+    args = ap.parse_args(argv)
     from simgap.control.figures import rl_curves_figure
-    from simgap.control.rl import VARIANTS, train_agent
+    from simgap.control.rl import RL_INFO_KEYWORDS, RL_TASK_ID, VARIANTS, RLTask, train_agent
 
-    args.out.mkdir(parents=True, exist_ok=True)
-    name = args.name or ("rl_residual_smoke" if args.smoke else "rl_residual")
-    if args.merge:
-        parts = [json.loads(p.read_text()) for p in args.merge]
-        runs = [r for p in parts for r in p["runs"]]
-        steps = parts[0]["steps_per_run"]
-        seeds = sorted({r["seed"] for r in runs})
-        result = summarise(runs, steps, seeds, sum(p["wall_s"] for p in parts))
-        result["merged_from"] = [str(p) for p in args.merge]
-        result["wall_s_note"] = "sum over the merged parts, which may have run in parallel"
+    if args.quick:
+        steps, seeds, every = 250, [0], 100
+        task, eval_mus = RLTask(episode_seconds=1.0), (0.5,)
     else:
-        steps, seeds = (300, [0]) if args.smoke else (args.steps, args.seeds)
-        runs = []
-        t0 = time.time()
-        with Progress() as bar:
-            task = bar.add_task("SAC runs", total=len(seeds) * len(VARIANTS))
-            for seed in seeds:
-                for variant in VARIANTS:
-                    t1 = time.time()
-                    run = train_agent(variant, seed, steps)
-                    run["wall_s"] = time.time() - t1
-                    runs.append(run)
-                    bar.console.print(f"{variant:8s} seed {seed}: final mean return "
-                                      f"{run['final_return_mean']:.3f} (base "
-                                      f"{np.mean(run['base_returns']):.3f}), "
-                                      f"{run['wall_s']:.0f} s")
-                    bar.advance(task)
-        result = summarise(runs, steps, seeds, time.time() - t0)
-    (args.out / f"{name}.json").write_text(json.dumps(result, indent=1))
-    rl_curves_figure(result["runs"], steps, args.out / f"{name}.png")
-    print(json.dumps({"summary": result["summary"], "json": str(args.out / f"{name}.json")},
-                     indent=1))
+        steps, seeds, every = args.steps, args.seeds, args.eval_every
+        task, eval_mus = RLTask(), (0.45, 0.6, 0.9)
+    name = args.name or ("rl_residual_quick" if args.quick else "rl_residual")
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / f"{name}.json"
+    settings = {"algorithm": "SAC (stable-baselines3), MlpPolicy (64, 64), batch 128, "
+                             "1 gradient step per env step, ent_coef auto from 0.01, "
+                             "learning_starts 500, torch 1 thread",
+                "env_id": RL_TASK_ID, "steps_per_run": steps, "seeds": seeds,
+                "eval_every": every, "eval_mus": list(eval_mus),
+                "task": {**task.__dict__, "mu_range": list(task.mu_range)},
+                "observation_scale": "ResidualObservation scale='running' (per-component "
+                                     "cumulative RMS of ĝ), clip ±10"}
+    runs: list[dict] = []
+    if args.resume and path.exists():
+        old = json.loads(path.read_text())
+        if old.get("settings") != settings:
+            sys.exit(f"--resume: {path} was written with other settings; remove it or drop "
+                     "--resume")
+        runs = old["runs"]
+    done = {(r["variant"], r["seed"]) for r in runs}
+    todo = [(s, v) for s in seeds for v in VARIANTS if (v, s) not in done]
+    started = time.time()
+    wall_before = sum(r.get("wall_s", 0.0) for r in runs)
+    load_start = load_string()
+    print(f"[rl_residual] {len(todo)} runs of {steps} steps ({len(done)} already done); "
+          f"load: {load_start}", file=sys.stderr, flush=True)
+
+    def result(complete: bool) -> dict:
+        return {"benchmark": "rl_residual", "complete": complete, "settings": settings,
+                "monitor_info_keywords": list(RL_INFO_KEYWORDS),
+                "summary": summarise(runs) if runs else {}, "runs": runs,
+                "wall_s_total": wall_before + time.time() - started,
+                "load_at_start": load_start, "load_at_end": load_string(),
+                "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                            "note": "shared 2-core machine, one process; timings are noisy"}}
+
+    for i, (seed, variant) in enumerate(todo):
+        t1 = time.time()
+
+        def progress(step: int, mean: float, variant: str = variant, seed: int = seed,
+                     t1: float = t1) -> None:
+            print(f"[rl_residual]   {variant} seed {seed}: step {step:6d}, eval return "
+                  f"{mean:8.3f} ({time.time() - t1:.0f} s)", file=sys.stderr, flush=True)
+
+        run = train_agent(variant, seed, steps, task=task, eval_mus=eval_mus,
+                          eval_every=every, progress=progress)
+        run["wall_s"] = time.time() - t1
+        runs.append(run)
+        print(f"[rl_residual] run {i + 1}/{len(todo)}: {variant} seed {seed}: final "
+              f"{run['final_return_mean']:.3f} (base {np.mean(run['base_returns']):.3f}), "
+              f"{run['wall_s']:.0f} s", file=sys.stderr, flush=True)
+        write_json(path, result(complete=False))
+    res = result(complete=True)
+    write_json(path, res)
+    rl_curves_figure(runs, steps, args.out / f"{name}.png")
+    print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
+    return res
 
 
 if __name__ == "__main__":

@@ -14,10 +14,12 @@
 # # Residual RL with and without the learned residual in the observation
 # A SAC agent (stable-baselines3) corrects the nominal-inverting yaw-rate controller of the
 # bicycle at 20 m/s on roads whose friction μ is drawn per episode from U(0.45, 0.9). One
-# variant sees (vy, r, r_ref, ṙ_ref); the other also sees the online identifier's ĝ
-# (`ResidualObservation`). Both run the same identifier, and `Monitor(info_keywords=...)` logs
-# its per-episode error. The full experiment is `benchmarks/rl_residual.py` (3 seeds × 15k
-# steps); with `SIMGAP_QUICK=1` this notebook runs a few hundred steps.
+# variant sees (vy, r, r_ref, ṙ_ref); the other also sees the online identifier's ĝ, scaled by
+# its running RMS (`ResidualObservation`). The task is the registered env
+# `simgap/YawRateResidualRL-v0` (docs/rl-task.md). Both run the same identifier, and
+# `Monitor(info_keywords=...)` logs its per-episode error. The full experiment is
+# `benchmarks/rl_residual.py` (5 seeds per variant, learning curves with 95 % bands); with
+# `SIMGAP_QUICK=1` this notebook runs a few hundred steps.
 
 # %%
 # %matplotlib inline

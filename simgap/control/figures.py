@@ -17,38 +17,59 @@ def _pyplot() -> Any:
 
 
 def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
-    """Plot learning curves (mean ± std over seeds) of ``train_agent`` runs to a PNG."""
-    plt = _pyplot()
+    """Learning curves of ``train_agent`` runs to a PNG: mean over seeds ± 95 % t-interval.
 
+    Left: the deterministic evaluation return (``run["evals"]``, if recorded) against env
+    steps; right: the training episodes' returns, interpolated on a common step grid.
+    """
+    from simgap.control.rl import mean_ci95
+
+    plt = _pyplot()
+    styles = (("plain", "tab:gray", "plain observation"),
+              ("residual", "tab:blue", "+ scaled ĝ (ResidualObservation)"))
+    has_evals = any(run.get("evals") for run in runs)
+    fig, axes = plt.subplots(1, 2 if has_evals else 1, figsize=(12 if has_evals else 7, 4.2),
+                             squeeze=False)
+    axes = axes[0]
+    base = [b for run in runs for b in run["base_returns"]]
     firsts = [run["episodes"][0]["step"] for run in runs if run["episodes"]]
     grid = np.linspace(max(firsts) if firsts else 0, total, 40)
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for variant, color in (("plain", "tab:gray"), ("residual", "tab:blue")):
-        curves = []
-        for run in runs:
-            if run["variant"] != variant or not run["episodes"]:
-                continue
-            steps = np.array([e["step"] for e in run["episodes"]])
-            rets = np.array([e["r"] for e in run["episodes"]])
-            curves.append(np.interp(grid, steps, rets, left=np.nan))
-        if not curves:
+    for variant, color, label in styles:
+        rs = [r for r in runs if r["variant"] == variant]
+        if not rs:
             continue
-        c = np.array(curves)
-        m, s = np.nanmean(c, 0), np.nanstd(c, 0)
-        label = {"plain": "plain observation", "residual": "ResidualObservation (+ ĝ)"}[variant]
-        ax.plot(grid, m, color=color, label=f"{label}, {len(curves)} seeds")
-        ax.fill_between(grid, m - s, m + s, color=color, alpha=0.2)
-    base = [b for run in runs for b in run["base_returns"]]
-    if base:
-        ax.axhline(float(np.mean(base)), color="k", ls="--", lw=1,
-                   label="base controller alone (eval mean)")
-    ax.set_xlabel("environment steps (-)")
-    ax.set_ylabel("episode return (−100·Σ(r − r_ref)², rad²/s²)")
-    ax.set_title("SAC residual RL, yaw-rate tracking on random-μ roads")
-    ax.legend()
+        panels = []
+        if has_evals:
+            steps = np.array([e["step"] for e in rs[0]["evals"]])
+            panels.append((axes[0], steps, [[e["mean"] for e in r["evals"]] for r in rs
+                                            if len(r["evals"]) == len(steps)]))
+        train = [np.interp(grid, [e["step"] for e in r["episodes"]],
+                           [e["r"] for e in r["episodes"]], left=np.nan)
+                 for r in rs if r["episodes"]]
+        panels.append((axes[-1], grid, train))
+        for ax, x, curves in panels:
+            if not curves:
+                continue
+            m, h = mean_ci95(np.array(curves))
+            ax.plot(x, m, color=color, marker="o" if ax is not axes[-1] else None, ms=3,
+                    label=f"{label}, {len(curves)} seeds")
+            ax.fill_between(x, m - h, m + h, color=color, alpha=0.2, lw=0)
+    titles = (["deterministic evaluation, μ = 0.45 / 0.6 / 0.9 (mean)"] if has_evals else []) \
+        + ["training episodes (stochastic policy, random μ)"]
+    for ax, title in zip(axes, titles, strict=True):
+        if base:
+            ax.axhline(float(np.mean(base)), color="k", ls="--", lw=1,
+                       label="base controller alone (eval)")
+        ax.set_xlabel("environment steps (10 ms each)")
+        ax.set_ylabel("episode return (−100·Σ(r − r_ref)², rad²/s²)")
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=8, loc="lower right")
+    fig.suptitle("SAC residual RL, yaw-rate tracking on random-μ roads "
+                 "(mean over seeds, band: 95 % t-interval)", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
 
 def compensation_figure(res: dict, path: Path) -> None:
     """Plot :func:`~simgap.control.experiments.compensation_study` as bars to a PNG."""

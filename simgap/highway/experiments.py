@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from simgap.highway.registration import HIGHWAY_LANE_KEEPING_ID, register_highway_envs
+from simgap.identifiers import IdentifierConfig
 from simgap.wrappers import IdentifierWrapper
 
 
@@ -46,8 +47,8 @@ def steering_excitation(t: float) -> float:
 
 
 def identify_lane_keeping(*, mu: float = 0.3, seconds: float = 20.0,
-                          identifier: str = "instantaneous", seed: int = 0
-                          ) -> AxleIdentification:
+                          identifier: str = "instantaneous", seed: int = 0,
+                          config: IdentifierConfig | None = None) -> AxleIdentification:
     """Drive ``simgap/PacejkaLaneKeeping-v0`` open loop and identify its axle residual.
 
     Args:
@@ -55,11 +56,12 @@ def identify_lane_keeping(*, mu: float = 0.3, seconds: float = 20.0,
         seconds: run length (s).
         identifier: identifier kind inside the :class:`~simgap.wrappers.IdentifierWrapper`.
         seed: reset seed and identifier seed.
+        config: identifier configuration (default: the wrapper's, the ``auto`` preset).
     """
     if not register_highway_envs():
         raise ImportError("highway-env is not installed: pip install 'simgap[highway]'")
     env = IdentifierWrapper(gym.make(HIGHWAY_LANE_KEEPING_ID, config={"mu": mu}), identifier,
-                            seed=seed)
+                            seed=seed, config=config)
     env.reset(seed=seed)
     dt = env.unwrapped.nominal_model.dt
     model = env.unwrapped.nominal_model

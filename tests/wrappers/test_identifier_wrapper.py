@@ -133,7 +133,7 @@ def test_bicycle_axle_force_estimates_and_manipulator_torques():
 
 
 def test_residual_observation_appends_g_hat():
-    env = ResidualObservation(DampedPendulumEnv(), include_error=True)
+    env = ResidualObservation(DampedPendulumEnv(), include_error=True, scale=None)
     assert env.observation_space.shape == (6,)
     obs, _ = env.reset(seed=0)
     np.testing.assert_array_equal(obs[2:], 0.0)
@@ -141,5 +141,50 @@ def test_residual_observation_appends_g_hat():
     assert env.observation_space.contains(obs)
     np.testing.assert_array_equal(obs[2:4], info["residual_estimate"])
     np.testing.assert_array_equal(obs[4:], info["estimation_error"])
+    assert "residual_observation_scale" not in info
+
+
+def test_residual_observation_scales_by_the_running_rms():
+    """Default: ĝ / RMS of every ĝ so far, per component, clipped to ±10; seeded resets
+    restore the statistics with the identifier, so a seeded run repeats exactly."""
+    env = ResidualObservation(DampedPendulumEnv(), include_error=True)
+    assert env.scale_mode == "running"
+    assert np.all(env.observation_space.high[2:] == 10.0)
+    gs, xs, obs_rows = [], [], []
+    env.reset(seed=0)
+    for k in range(300):
+        obs, _, _, _, info = env.step(np.array([np.sin(0.05 * k)], dtype=np.float32))
+        assert env.observation_space.contains(obs)
+        gs.append(info["residual_estimate"])
+        xs.append(info["estimation_error"])
+        obs_rows.append(obs)
+    g, x = np.array(gs), np.array(xs)
+    s = np.sqrt(np.mean(g**2, axis=0))
+    np.testing.assert_allclose(info["residual_observation_scale"], s, rtol=1e-12)
+    np.testing.assert_allclose(obs[2:4], np.clip(g[-1] / s, -10, 10), rtol=1e-12)
+    np.testing.assert_allclose(obs[4:], np.clip(x[-1] / np.sqrt(np.mean(x**2, axis=0)),
+                                                -10, 10), rtol=1e-12)
+    assert np.max(np.abs(g)) > 0 and 0.1 < np.sqrt(np.mean(np.array(obs_rows)[100:, 2:4]**2)) < 3
+    env.reset(seed=0)
+    again = [env.step(np.array([np.sin(0.05 * k)], dtype=np.float32))[0] for k in range(300)]
+    np.testing.assert_array_equal(np.array(again), np.array(obs_rows))
+
+
+def test_residual_observation_declared_scale_and_bad_scales():
+    env = ResidualObservation(DampedPendulumEnv(), include_error=True, scale=[2.0, 0.5],
+                              clip=5.0)
+    env.reset(seed=0)
+    a_d = abs(env.identifier_wrapper.identifier.config.a_d)
+    for _ in range(50):
+        obs, _, _, _, info = env.step(np.array([0.7], dtype=np.float32))
+    np.testing.assert_allclose(obs[2:4], np.clip(info["residual_estimate"] / [2.0, 0.5], -5, 5),
+                               rtol=1e-6)
+    np.testing.assert_allclose(obs[4:], np.clip(info["estimation_error"] * a_d / [2.0, 0.5],
+                                                -5, 5), rtol=1e-6)
+    for bad in ("rms", 0.0, [1.0, -1.0], [1.0, 2.0, 3.0], float("nan")):
+        with pytest.raises(IdentifierError, match="scale"):
+            ResidualObservation(DampedPendulumEnv(), scale=bad)
+    with pytest.raises(IdentifierError, match="clip"):
+        ResidualObservation(DampedPendulumEnv(), clip=0)
     with pytest.raises(IdentifierError, match="already contains"):
         ResidualObservation(IdentifierWrapper(DampedPendulumEnv()), identifier="minibatch")

@@ -84,7 +84,10 @@ def test_residual_observation_on_dict_adds_keys() -> None:
     for _ in range(20):
         obs, _, _, _, info = env.step(np.array([0.3]))
     assert obs in space
-    np.testing.assert_array_equal(obs["residual_estimate"], info["residual_estimate"])
+    np.testing.assert_allclose(obs["residual_estimate"],
+                               np.clip(info["residual_estimate"]
+                                       / info["residual_observation_scale"], -10, 10))
+    assert space["residual_estimate"].high.max() == 10.0
     np.testing.assert_array_equal(obs["goal"], np.zeros(1, dtype=np.float32))
 
 
