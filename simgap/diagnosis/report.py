@@ -290,17 +290,17 @@ def markdown(data: dict[str, Any], figure: Callable[[str], str] | None = None) -
 
 
 def figures_png(report, data: dict[str, Any]) -> dict[str, bytes]:
-    """Every figure of the report as PNG bytes, by file name."""
-    figs = {"residual_time.png": residual_time_figure(report),
-            "residual_vs_variable.png": residual_vs_figure(report),
-            "simulation.png": simulation_figure(report)}
+    """Every figure of the report as PNG bytes, by file name (one figure alive at a time)."""
+    makers = {"residual_time.png": lambda: residual_time_figure(report),
+              "residual_vs_variable.png": lambda: residual_vs_figure(report),
+              "simulation.png": lambda: simulation_figure(report)}
     ident = data.get("identifiability")
     if isinstance(ident, dict) and len(ident.get("names") or []) >= 2:
-        figs["identifiability.png"] = correlation_figure(ident)
+        makers["identifiability.png"] = lambda: correlation_figure(ident)
     out = {}
-    for name, fig in figs.items():
+    for name, make in makers.items():
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
+        make().savefig(buf, format="png", dpi=110)
         out[name] = buf.getvalue()
     return out
 
