@@ -38,6 +38,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import emit
+
 RATE_HZ = 500.0
 TARGET_60S_S = 10.0
 TARGET_BYTES_PER_SAMPLE = 512.0
@@ -261,8 +263,6 @@ def main() -> None:
             log(f"  {dur:g} s: {row['diagnose_s']} s, {row['bytes_per_sample']} B/sample")
     first, last = rows[0], rows[-1]
     sixty = next((r for r in rows if r["duration_s"] == 60.0), None)
-    with open("/proc/loadavg", encoding="ascii") as fh:
-        load = fh.read().split()[:3]
     res = {
         "benchmark": "simgap diagnose manipulator2dof at 500 Hz: wall time and memory vs "
                      "length (one fresh process per length)",
@@ -279,13 +279,8 @@ def main() -> None:
             "bytes_per_sample": bool(max(r["bytes_per_sample"] for r in rows)
                                      <= TARGET_BYTES_PER_SAMPLE),
         },
-        "cpu_count": os.cpu_count(),
-        "loadavg_1_5_15": [float(x) for x in load],
     }
-    text = json.dumps(res, indent=2)
-    if args.out:
-        args.out.write_text(text + "\n", encoding="utf-8")
-    print(text)
+    emit(res, args.out)
 
 
 if __name__ == "__main__":

@@ -34,14 +34,13 @@ checked here.
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _results import emit
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "real" / "emps"
@@ -159,14 +158,7 @@ def main() -> None:
     args = ap.parse_args()
     if not DATA.is_dir():
         sys.exit(f"error: {DATA}: the shared EMPS data folder is missing")
-    res = run(args.test_seconds)
-    with open("/proc/loadavg", encoding="ascii") as fh:
-        res["loadavg_1_5_15"] = [float(x) for x in fh.read().split()[:3]]
-    res["cpu_count"] = os.cpu_count()
-    text = json.dumps(res, indent=2)
-    if args.out:
-        args.out.write_text(text + "\n", encoding="utf-8")
-    print(text)
+    emit(run(args.test_seconds), args.out)
 
 
 if __name__ == "__main__":

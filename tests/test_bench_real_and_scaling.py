@@ -7,20 +7,13 @@ the same scripts run tiny variants and their JSON must carry every field the not
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.test_benchmarks import _run
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _run(script: str, *args: str) -> dict:
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *args],
-                          capture_output=True, text=True, timeout=900, cwd=ROOT)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return json.loads(proc.stdout)
 
 
 def test_emps_protocol_quick(tmp_path, shared_dir) -> None:
