@@ -42,6 +42,7 @@ from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, A
 from simgap.diagnosis.compare import Comparison, compare
 from simgap.diagnosis.effects import needs_context, nominal_corrections, report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
+from simgap.diagnosis.shares import explained_section
 from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
@@ -486,6 +487,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             "column_noise_std": {k: float(v) for k, v in res.column_noise.items()},
         },
     }
+    data["explained"] = explained_section(  # additive shares (simgap.diagnosis.shares)
+        r_te[:, sig_idx], [(p[fitter.test] * fitter.w)[:, sig_idx] for p in preds], entries,
+        [system.channels[i] for i in sig_idx], min(1.0, noise_share))
     return Report(data=data, augmented=augmented, system=system, residual=res.residual,
                   noise=res.noise_rms, selection=sel, comparison=comp,
                   fitted_pred=sel.fit.total(fitter.n, fitter.c), term_preds=preds)

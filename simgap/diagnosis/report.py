@@ -1,4 +1,10 @@
-"""Step 6 of the diagnosis: report.json, report.md with PNG figures, terminal summary.
+"""Step 6 of the diagnosis: report.json, report.md, report.html, PNG figures, summary.
+
+report.md starts with a one-line verdict, then where the mismatch is, what explains it
+(with additive shares, :mod:`simgap.diagnosis.shares`), the effects tried and rejected, the
+identifiability of the named parameters (:mod:`simgap.diagnosis.report_sections`) and how
+much better the augmented model simulates held-out data. report.html is the same text in one
+self-contained file (:mod:`simgap.diagnosis.report_html`).
 
 :func:`write_report` builds everything in a temporary folder next to the target and moves
 it into place at the end, so a failure leaves nothing half-written. Figures are
@@ -10,7 +16,8 @@ this module leaves a notebook's inline backend alone):
 * ``residual_vs_variable.png``: residual per channel against the located variable, with the
   binned mean and the fitted effects' contribution;
 * ``simulation.png``: recorded vs nominal vs augmented open-loop simulations over the whole
-  test part.
+  test part;
+* ``identifiability.png``: correlation matrix of the named parameters (two or more).
 
 Fitted contributions are drawn only where they were fitted: samples the fit leaves out (a
 joint's stick phases, ``system.fit_mask()``) are NaN, so the curve has a gap there instead of
@@ -20,9 +27,10 @@ grow wider (:func:`figure_width`).
 
 from __future__ import annotations
 
+import io
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +41,14 @@ from simgap._plotting import legend_outside
 from simgap.diagnosis.augmented import save_model
 from simgap.diagnosis.locate import binned
 from simgap.diagnosis.pipeline import fmt
+from simgap.diagnosis.report_html import correlation_figure, html_page
+from simgap.diagnosis.report_sections import (
+    explained_lines,
+    identifiability_lines,
+    tried_lines,
+    verdict,
+    with_fallbacks,
+)
 from simgap.outputs import output_folder
 
 MAX_POINTS = 4000
@@ -60,12 +76,10 @@ def finite_json(obj: Any) -> Any:
 
 def summary_lines(data: dict[str, Any]) -> list[str]:
     """Plain-words summary of a report (what the CLI prints)."""
-    lines = [f"{data['recording']}: {data['samples']} samples, model {data['model']}"]
+    lines = [f"{data['recording']}: {data['samples']} samples, model {data['model']}",
+             f"  verdict: {verdict(data)}"]
     mm = data["mismatch"]
-    if not mm["significant"]:
-        lines.append("No mismatch beyond the noise: the recording matches the nominal model "
-                     "(no effect named).")
-    else:
+    if mm["significant"]:
         for c in mm["channels"]:
             state = "ABOVE" if c["significant"] else "within"
             unit = unit_suffix(c.get("unit", ""))
@@ -145,11 +159,6 @@ def residual_time_figure(report):
     return fig
 
 
-def _fig_residual_time(report, path: Path) -> None:
-    fig = residual_time_figure(report)
-    fig.savefig(path, dpi=110)
-
-
 def residual_vs_figure(report):
     """``residual_vs_variable.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
     sys = report.system
@@ -177,11 +186,6 @@ def residual_vs_figure(report):
         _legend_outside(ax)
     fig.tight_layout()
     return fig
-
-
-def _fig_residual_vs(report, path: Path) -> None:
-    fig = residual_vs_figure(report)
-    fig.savefig(path, dpi=110)
 
 
 def simulation_figure(report):
@@ -215,17 +219,20 @@ def simulation_figure(report):
     return fig
 
 
-def _fig_simulation(report, path: Path) -> None:
-    fig = simulation_figure(report)
-    fig.savefig(path, dpi=110)
+def markdown(data: dict[str, Any], figure: Callable[[str], str] | None = None) -> str:
+    """report.md text: the verdict first, then where, what, how much better.
 
-
-def markdown(data: dict[str, Any]) -> str:
-    """report.md text (figures referenced by relative path)."""
+    Args:
+        data: the report dict (``report.data``, or :func:`with_fallbacks`'s copy).
+        figure: maps a figure's file name to the image source written into the text
+            (default: the relative file name; report.html passes base64 data URIs).
+    """
+    src = figure or (lambda name: name)
     f = data["fit"]
     out = [f"# simgap diagnosis: {data['recording']}", "",
+           f"**Verdict:** {verdict(data)}", "",
            f"Model `{data['model']}`, {data['samples']} samples.", "", "## Summary", ""]
-    out += [f"- {line.strip()}" for line in summary_lines(data)[1:]]
+    out += [f"- {line.strip()}" for line in summary_lines(data)[2:]]  # after the verdict
     out += ["", "## Where", "", "| channel | residual RMS | noise RMS | significant |",
             "|---|---|---|---|"]
     for c in data["mismatch"]["channels"]:
@@ -238,24 +245,29 @@ def markdown(data: dict[str, Any]) -> str:
             for s in data["mismatch"]["segments"]) + "."]
     for r in data["mismatch"]["regions"]:
         out.append(f"- {r['channel']} / {r['variable']}: {r['text']}")
-    out += ["", "![residual over time](residual_time.png)", "", "## What", ""]
+    out += ["", f"![residual over time]({src('residual_time.png')})", "", "## What", ""]
     if data["effects"]:
-        out += ["| effect | channel | parameters (± stderr) | explained |", "|---|---|---|---|"]
+        out += ["| effect | channel | parameters (± stderr) | drop-one share² |",
+                "|---|---|---|---|"]
         for e in data["effects"]:
             ps = ", ".join("{} = {} ± {}".format(k, *fmt(v, e["stderr"][k]))
                            + unit_suffix(e.get("units", {}).get(k, ""))
                            for k, v in e["parameters"].items())
             out.append(f"| {e['effect']} | {e['channel']} | {ps} | "
                        f"{100 * e['explained_fraction']:.0f} % |")
+        out += ["", "² drop-one: how much more held-out residual is left at the effect's "
+                "channels without it, given the others (not additive; the additive shares "
+                "follow)."]
     else:
         out.append("No effect of the vocabulary improves the held-out fit beyond the noise.")
     for w in data.get("warnings", []):
         out.append(f"\n> Warning: {w['text']}")
-    out += ["", f"Unexplained share of the held-out residual: "
-            f"{100 * data['unexplained_fraction']:.0f} % (noise alone accounts for about "
-            f"{100 * data['noise_fraction']:.0f} %).", "",
-            "![residual against the located variable](residual_vs_variable.png)", "",
-            "## How much better", "",
+    out += ["", "### Explained shares", ""] + explained_lines(data)
+    out += ["", f"![residual against the located variable]({src('residual_vs_variable.png')})",
+            "", "## Tried and rejected", ""] + tried_lines(data)
+    out += ["", "## Identifiability of what was named", ""]
+    out += identifiability_lines(data, src)
+    out += ["", "## How much better", "",
             f"Train {f['split']['train'][0]:.2f}–{f['split']['train'][1]:.2f} s, test "
             f"{f['split']['test'][0]:.2f}–{f['split']['test'][1]:.2f} s. {f['method']}.", "",
             "| error | " + " | ".join(f"{n} ({u})" for n, u in zip(
@@ -271,31 +283,50 @@ def markdown(data: dict[str, Any]) -> str:
         out.append(f"| simulation RMSE, {m} | " + " | ".join(
             f"{v:.4g}" for v in f[m]["rollout_rmse"]) + f" | {f[m]['rollout_score']:.3g} |")
     out += ["", f"¹ score: {SCORE_MEANING}.", "",
-            "![nominal vs augmented simulation](simulation.png)", "",
+            f"![nominal vs augmented simulation]({src('simulation.png')})", "",
             "The augmented model is saved as `augmented_model.json` "
             "(`simgap.diagnosis.load_augmented`).", ""]
     return "\n".join(out)
 
 
+def figures_png(report, data: dict[str, Any]) -> dict[str, bytes]:
+    """Every figure of the report as PNG bytes, by file name (one figure alive at a time)."""
+    makers = {"residual_time.png": lambda: residual_time_figure(report),
+              "residual_vs_variable.png": lambda: residual_vs_figure(report),
+              "simulation.png": lambda: simulation_figure(report)}
+    ident = data.get("identifiability")
+    if isinstance(ident, dict) and len(ident.get("names") or []) >= 2:
+        makers["identifiability.png"] = lambda: correlation_figure(ident)
+    out = {}
+    for name, make in makers.items():
+        buf = io.BytesIO()
+        make().savefig(buf, format="png", dpi=110)
+        out[name] = buf.getvalue()
+    return out
+
+
 def write_report(report, out_dir: str | os.PathLike, figures: bool = True,
                  inputs: Sequence[str | os.PathLike] = ()) -> Path:
-    """Write report.json, report.md, figures and augmented_model.json into ``out_dir``.
+    """Write report.json, report.md, report.html, figures and augmented_model.json.
 
-    Transactional (:func:`simgap.outputs.output_folder`): everything is written to a fresh
+    report.html is one self-contained file (the same text as report.md, figures embedded as
+    base64 PNG, no network access, no scripts). Transactional
+    (:func:`simgap.outputs.output_folder`): everything is written to a fresh
     temporary sibling folder and moved into place at the end; an existing ``out_dir`` is
     replaced only if it is empty or a previous simgap output, and a target that is or holds
     one of ``inputs`` is refused (:class:`~simgap.errors.OutputError`).
     """
+    view = with_fallbacks(report)
+    pngs = figures_png(report, view) if figures else {}
     with output_folder(out_dir, kind="diagnose", inputs=inputs) as tmp:
         (tmp / "report.json").write_text(json.dumps(finite_json(report.data), indent=2,
                                                     allow_nan=False),
                                          encoding="utf-8")
-        (tmp / "report.md").write_text(markdown(report.data), encoding="utf-8")
+        (tmp / "report.md").write_text(markdown(view), encoding="utf-8")
+        (tmp / "report.html").write_text(html_page(view, pngs, markdown), encoding="utf-8")
         save_model(report.augmented, tmp / "augmented_model.json")  # every model has one
         if getattr(report, "mjcf_text", None):  # an MJCF nominal: the corrected MJCF
             (tmp / "augmented_model.xml").write_text(report.mjcf_text, encoding="utf-8")
-        if figures:
-            _fig_residual_time(report, tmp / "residual_time.png")
-            _fig_residual_vs(report, tmp / "residual_vs_variable.png")
-            _fig_simulation(report, tmp / "simulation.png")
+        for name, png in pngs.items():
+            (tmp / name).write_bytes(png)
     return Path(out_dir)
