@@ -55,6 +55,8 @@ class SystemSpec:
         env_id: gymnasium id; with ``env_entry_point`` and ``max_episode_steps``.
         env_entry_point: ``"module:Class"`` of the env.
         max_episode_steps: default ``TimeLimit`` of ``gym.make``.
+        vector_entry_point: ``"module:Class"`` of a native vector env (``gym.make_vec``'s
+            default mode when set; ``vectorization_mode="sync"`` still gives the sync one).
     """
 
     name: str
@@ -68,6 +70,7 @@ class SystemSpec:
     env_id: str | None = None
     env_entry_point: str | None = None
     max_episode_steps: int | None = None
+    vector_entry_point: str | None = None
 
     @property
     def vocabulary(self) -> tuple[EffectSpec, ...]:
@@ -146,7 +149,8 @@ def identifier_preset_of(model: Any) -> str:
 
 
 def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
-             form: str, generator: str, env_id: str, env: str, steps: int) -> SystemSpec:
+             form: str, generator: str, env_id: str, env: str, steps: int,
+             vector: str | None = None) -> SystemSpec:
     """A built-in system: its plant schema names it and its parameter class."""
     return register_system(SystemSpec(
         name=schema.system, params_cls=schema.params_cls,
@@ -154,13 +158,14 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
         plant_schema=schema, recording=RecordingSchema(canonical=columns),
         identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
         generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
-        env_entry_point=env, max_episode_steps=steps))
+        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector))
 
 
 _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
          form="MechanicalSystem", generator="generate_manipulator",
          env_id="simgap/ManipulatorFriction-v0",
-         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000)
+         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000,
+         vector="simgap.envs.manipulator_vector:ManipulatorVectorEnv")
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
          form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
          env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)
