@@ -29,6 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from simgap._envtable import BUILTIN_ENVS
 from simgap.errors import ModelError
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
@@ -149,9 +150,9 @@ def identifier_preset_of(model: Any) -> str:
 
 
 def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
-             form: str, generator: str, env_id: str, env: str, steps: int,
-             vector: str | None = None) -> SystemSpec:
-    """A built-in system: its plant schema names it and its parameter class."""
+             form: str, generator: str) -> SystemSpec:
+    """A built-in system (env registration from :data:`simgap._envtable.BUILTIN_ENVS`)."""
+    env_id, env, steps, vector = BUILTIN_ENVS[schema.system]
     return register_system(SystemSpec(
         name=schema.system, params_cls=schema.params_cls,
         nominal=lambda params, dt=None: nominal_cls(params, **({} if dt is None else {"dt": dt})),
@@ -162,10 +163,6 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
 
 
 _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
-         form="MechanicalSystem", generator="generate_manipulator",
-         env_id="simgap/ManipulatorFriction-v0",
-         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000,
-         vector="simgap.envs.manipulator_vector:ManipulatorVectorEnv")
+         form="MechanicalSystem", generator="generate_manipulator")
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
-         form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
-         env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)
+         form="BicycleSystem", generator="generate_bicycle")

@@ -27,6 +27,7 @@ from simgap.envs.scenarios import QuinticReference, quintic_sample_entries
 from simgap.envs.vector_base import NativeVectorEnv
 from simgap.errors import EnvError
 from simgap.models.manipulator import residual_entries, transition_entries
+from simgap.models.nbcache import guard_cache
 
 
 @njit(cache=True)
@@ -202,3 +203,8 @@ class ManipulatorVectorEnv(NativeVectorEnv):
         if rows.any():
             self._draw_noise(rows)
         return self._run(a, rows)
+
+
+guard_cache(globals(), ("simgap.envs.scenarios", "simgap.models.friction",
+                        "simgap.models.integrators", "simgap.models.manipulator",
+                        "simgap.models.slots"))

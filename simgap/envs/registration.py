@@ -1,39 +1,53 @@
 """Gymnasium registration of the simgap envs (idempotent: safe to call repeatedly).
 
-The envs are those of the system registry (:data:`simgap.systems.SYSTEMS`) that declare an
-``env_id``; entry points are strings, so registering does not import the env modules.
+The built-in env ids come from :data:`simgap._envtable.BUILTIN_ENVS` (plain data), so that
+``import simgap`` registers them without importing the system registry, the models or numba;
+the envs of user systems (:func:`simgap.systems.register_system` with an ``env_id``) are
+registered by :func:`register_envs` once :mod:`simgap.systems` is imported. Entry points are
+strings, so registering does not import the env modules.
 Episode limits (``TimeLimit`` via ``gym.make``; override with ``max_episode_steps=``):
 the manipulator 5,000 steps (10 s at 500 Hz), the bicycle 3,500 steps (35 s at 100 Hz, one
-default slalom).
+default slalom). A ``vector_entry_point`` makes ``gym.make_vec(id, N)`` build the native
+vector env (``vectorization_mode="sync"`` still builds the sync one).
 """
 
 from __future__ import annotations
 
+import sys
+
 import gymnasium as gym
 
-from simgap.systems import SYSTEMS
+from simgap._envtable import BUILTIN_ENVS
 
-MANIPULATOR_ID = SYSTEMS["manipulator2dof"].env_id
-BICYCLE_ID = SYSTEMS["bicycle"].env_id
+MANIPULATOR_ID = BUILTIN_ENVS["manipulator2dof"][0]
+BICYCLE_ID = BUILTIN_ENVS["bicycle"][0]
+
+#: The built-in envs: id -> (entry point, default max_episode_steps, vector entry point).
+ENV_SPECS: dict[str, tuple[str, int | None, str | None]] = {
+    env_id: (entry, steps, vector) for env_id, entry, steps, vector in BUILTIN_ENVS.values()}
 
 
 def env_specs() -> dict[str, tuple[str, int | None, str | None]]:
-    """Id -> (entry point, default max_episode_steps, vector entry point or None)."""
+    """Id -> (entry point, default max_episode_steps, vector entry point) of every system env.
+
+    Imports the system registry (:data:`simgap.systems.SYSTEMS`).
+    """
+    from simgap.systems import SYSTEMS
+
     return {s.env_id: (s.env_entry_point, s.max_episode_steps, s.vector_entry_point)
             for s in SYSTEMS.values() if s.env_id and s.env_entry_point}
 
 
-#: The built-in envs (see :func:`env_specs` for user systems registered later).
-ENV_SPECS: dict[str, tuple[str, int | None, str | None]] = env_specs()
-
-
 def register_envs() -> None:
-    """Register every system env id that is not registered yet (no warning on repeats).
+    """Register every env id that is not registered yet (no warning on repeats).
 
-    A system with a ``vector_entry_point`` gets it registered: ``gym.make_vec(id, N)`` then
-    builds the native vector env (``vectorization_mode="sync"`` the sync one).
+    The built-in ones always; those of user systems when :mod:`simgap.systems` is loaded
+    (registering a system imports it).
     """
-    for env_id, (entry_point, max_steps, vector) in env_specs().items():
+    specs = dict(ENV_SPECS)
+    if "simgap.systems" in sys.modules:
+        specs.update(env_specs())
+    for env_id, (entry_point, max_steps, vector) in specs.items():
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_steps,
                          order_enforce=False,  # the envs raise EnvError before reset

@@ -34,6 +34,7 @@ from simgap.models.effects import (
 )
 from simgap.models.friction import FRICTION_FIELDS, FrictionParams, joint_friction
 from simgap.models.integrators import rk4_combine, rk4_stage
+from simgap.models.nbcache import guard_cache
 from simgap.models.slots import Slots
 
 #: Layout of :attr:`ManipulatorParams.array`.
@@ -699,3 +700,7 @@ def make_plant(params: ManipulatorParams | None = None, *,
     return PLANT_SCHEMA.plant(params, friction_effects(friction)
                               + disturbance_effects(disturbance) + tuple(effects),
                               coulomb_sigma=sigma)
+
+
+guard_cache(globals(), ("simgap.models.friction", "simgap.models.integrators",
+                        "simgap.models.slots"))
