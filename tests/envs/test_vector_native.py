@@ -193,3 +193,17 @@ def test_vector_wrapper_wraps_periodic_states_as_the_single_wrapper():
     assert np.all(np.abs(info["state_estimate"][:, 0]) <= np.pi)
     for i, s in enumerate(singles):
         np.testing.assert_array_equal(venv.identifier.W[i], s.identifier.W)
+
+
+def test_bicycle_cacheable_plant_step_equals_rk4_over_plant_derivative():
+    from simgap.models import bicycle as bic
+
+    rng = np.random.default_rng(4)
+    for opts in ({}, {"relaxation_length": (0.4, 0.6), "steering_lag": 0.05,
+                      "lateral_bias": 0.3, "yaw_bias": -0.1}):
+        theta = bic.plant_array(bic.BicycleParams(), 20.0, tire=bic.MagicFormulaTire(), **opts)
+        for _ in range(100):
+            s = rng.normal(size=6) * (1.0, 0.5, 0.05, 0.05, 0.05, 0.05)
+            u = rng.normal(size=2) * 0.1
+            np.testing.assert_array_equal(bic.plant_step(s, u, theta, 0.01, 4),
+                                          rk4(bic.plant_derivative, s, u, theta, 0.01, 4))
