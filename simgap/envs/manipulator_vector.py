@@ -30,6 +30,23 @@ from simgap.models.manipulator import residual_entries, transition_entries
 from simgap.models.nbcache import guard_cache
 
 
+@njit(cache=True, inline="always")
+def _write_info(i, t, r, g3, g4, tau1, tau2, u1, u2, t_out, ref_out, g_out, tau_out,
+                u_out):  # pragma: no cover - compiled
+    """Row i of the info arrays: t, reference (6), g = (0, 0, g3, g4), tau_d, applied u."""
+    t_out[i] = t
+    for j in range(6):
+        ref_out[i, j] = r[j]
+    g_out[i, 0] = 0.0
+    g_out[i, 1] = 0.0
+    g_out[i, 2] = g3
+    g_out[i, 3] = g4
+    tau_out[i, 0] = tau1
+    tau_out[i, 1] = tau2
+    u_out[i, 0] = u1
+    u_out[i, 1] = u2
+
+
 @njit(cache=True)
 def _row_reset(i, s, k, noise, theta, la_nom, ref_p, two, t_out, ref_out, g_out, tau_out,
                u_out):  # pragma: no cover - compiled
@@ -42,17 +59,7 @@ def _row_reset(i, s, k, noise, theta, la_nom, ref_p, two, t_out, ref_out, g_out,
     k[i] = 0
     g3, g4, tau1, tau2 = residual_entries(s[i, 0], s[i, 1], s[i, 2], s[i, 3], 0.0, 0.0, theta,
                                           la_nom)
-    t_out[i] = 0.0
-    for j in range(6):
-        ref_out[i, j] = r[j]
-    g_out[i, 0] = 0.0
-    g_out[i, 1] = 0.0
-    g_out[i, 2] = g3
-    g_out[i, 3] = g4
-    tau_out[i, 0] = tau1
-    tau_out[i, 1] = tau2
-    u_out[i, 0] = 0.0
-    u_out[i, 1] = 0.0
+    _write_info(i, 0.0, r, g3, g4, tau1, tau2, 0.0, 0.0, t_out, ref_out, g_out, tau_out, u_out)
 
 
 @njit(cache=True)
@@ -92,17 +99,8 @@ def vector_step(s, k, a, reset_rows, noise, low, high, theta, la_nom, dt, n_sub,
             term[i] = not (abs(n3) <= max_speed and abs(n4) <= max_speed
                            and np.isfinite(n1) and np.isfinite(n2))
             trunc[i] = max_steps >= 0 and k[i] >= max_steps
-            t_out[i] = t
-            for j in range(6):
-                ref_out[i, j] = r[j]
-            g_out[i, 0] = 0.0
-            g_out[i, 1] = 0.0
-            g_out[i, 2] = g3
-            g_out[i, 3] = g4
-            tau_out[i, 0] = tau1
-            tau_out[i, 1] = tau2
-            u_out[i, 0] = u1
-            u_out[i, 1] = u2
+            _write_info(i, t, r, g3, g4, tau1, tau2, u1, u2, t_out, ref_out, g_out, tau_out,
+                        u_out)
         for j in range(4):
             obs[i, j] = s[i, j]
         reset_rows[i] = term[i] or trunc[i]

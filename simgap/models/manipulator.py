@@ -338,6 +338,12 @@ def plant_derivative(s, u, theta):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _stage(q1, q2, dq1, dq2, c, k1, k2, k3, k4):  # pragma: no cover - compiled
+    return (rk4_stage(q1, c, k1), rk4_stage(q2, c, k2), rk4_stage(dq1, c, k3),
+            rk4_stage(dq2, c, k4))
+
+
+@njit(cache=True, inline="always")
 def plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub):  # pragma: no cover - compiled
     """:func:`plant_derivative` advanced by dt (s) with n_sub RK4 sub-steps, on scalars.
 
@@ -351,20 +357,11 @@ def plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub):  # pragma: no cover -
     h6 = h / 6.0
     for _ in range(n_sub):
         a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
-        t0 = rk4_stage(q1, half, dq1)
-        t1 = rk4_stage(q2, half, dq2)
-        t2 = rk4_stage(dq1, half, a1)
-        t3 = rk4_stage(dq2, half, a2)
+        t0, t1, t2, t3 = _stage(q1, q2, dq1, dq2, half, dq1, dq2, a1, a2)
         b1, b2 = _plant_acc(t0, t1, t2, t3, u1, u2, theta)
-        v0 = rk4_stage(q1, half, t2)
-        v1 = rk4_stage(q2, half, t3)
-        v2 = rk4_stage(dq1, half, b1)
-        v3 = rk4_stage(dq2, half, b2)
+        v0, v1, v2, v3 = _stage(q1, q2, dq1, dq2, half, t2, t3, b1, b2)
         c1, c2 = _plant_acc(v0, v1, v2, v3, u1, u2, theta)
-        w0 = rk4_stage(q1, h, v2)
-        w1 = rk4_stage(q2, h, v3)
-        w2 = rk4_stage(dq1, h, c1)
-        w3 = rk4_stage(dq2, h, c2)
+        w0, w1, w2, w3 = _stage(q1, q2, dq1, dq2, h, v2, v3, c1, c2)
         d1, d2 = _plant_acc(w0, w1, w2, w3, u1, u2, theta)
         q1, q2, dq1, dq2 = (rk4_combine(q1, h6, dq1, t2, v2, w2),
                             rk4_combine(q2, h6, dq2, t3, v3, w3),

@@ -55,13 +55,15 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         config: identifier config (default: ``preset("auto", kind, dt=model.dt)``).
         seed: seed of the (shared) initial weights.
         reset_identifier_on_seed: a seeded reset restores the reset point (default True).
-        threads: passed to :class:`~simgap.identifiers.BatchIdentifier` (``None``: numba's
-            threads from 256 sub-envs up; ``False`` if this process forks workers later).
+        threads: passed to :class:`~simgap.identifiers.BatchIdentifier`. Default ``False``
+            (one core): numba's threads gained 1.35-1.55x on an idle machine and lost 4-46x
+            at load 2.3-2.8 on the shared 2-core machine (issue 17); ``True`` on a machine of
+            your own, ``None`` for the batch's own rule (threads from 256 rows up).
     """
 
     def __init__(self, env: gym.vector.VectorEnv, identifier: str = "integral", *,
                  frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True, threads: bool | None = None) -> None:
+                 reset_identifier_on_seed: bool = True, threads: bool | None = False) -> None:
         super().__init__(env)
         models = tuple(env.get_attr("nominal_model"))
         for mdl in models:
