@@ -29,6 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from simgap._envtable import BUILTIN_ENVS
 from simgap.errors import ModelError
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
@@ -61,6 +62,8 @@ class SystemSpec:
             ``fn(path, recording, **options) -> Report``.
         model_type: ``"module:Class"`` of the system's nominal models: a model object of
             this class (or a subclass) gets this system's ``residual_form``.
+        vector_entry_point: ``"module:Class"`` of a native vector env (``gym.make_vec``'s
+            default mode when set; ``vectorization_mode="sync"`` still gives the sync one).
     """
 
     name: str
@@ -77,6 +80,7 @@ class SystemSpec:
     model_files: tuple[str, ...] = ()
     diagnose_file: str | None = None
     model_type: str | None = None
+    vector_entry_point: str | None = None
 
     @property
     def vocabulary(self) -> tuple[EffectSpec, ...]:
@@ -187,8 +191,9 @@ def identifier_preset_of(model: Any) -> str:
 
 
 def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
-             form: str, generator: str, env_id: str, env: str, steps: int) -> SystemSpec:
-    """A built-in system: its plant schema names it and its parameter class."""
+             form: str, generator: str) -> SystemSpec:
+    """A built-in system (env registration from :data:`simgap._envtable.BUILTIN_ENVS`)."""
+    env_id, env, steps, vector = BUILTIN_ENVS[schema.system]
     return register_system(SystemSpec(
         model_type=f"{nominal_cls.__module__}:{nominal_cls.__name__}",
         name=schema.system, params_cls=schema.params_cls,
@@ -196,16 +201,13 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
         plant_schema=schema, recording=RecordingSchema(canonical=columns),
         identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
         generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
-        env_entry_point=env, max_episode_steps=steps))
+        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector))
 
 
 _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
-         form="MechanicalSystem", generator="generate_manipulator",
-         env_id="simgap/ManipulatorFriction-v0",
-         env="simgap.envs.manipulator:ManipulatorFrictionEnv", steps=5000)
+         form="MechanicalSystem", generator="generate_manipulator")
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
-         form="BicycleSystem", generator="generate_bicycle", env_id="simgap/BicycleTire-v0",
-         env="simgap.envs.bicycle:BicycleTireEnv", steps=3500)
+         form="BicycleSystem", generator="generate_bicycle")
 
 #: A MuJoCo model file (MJCF ``.xml`` or compiled ``.mjb``): any mechanical model MuJoCo
 #: describes; no plant, generator or env of its own.

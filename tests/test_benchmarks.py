@@ -80,3 +80,18 @@ def test_bench_auto_quick(tmp_path):
         assert r["diverged"] is None and 0 < r["max_abs_g_hat"] < 100
         assert isinstance(r["met"], bool)
     assert (tmp_path / "bar_pendulum.png").stat().st_size > 0
+
+
+def test_bench_vector_quick(tmp_path):
+    out = tmp_path / "bench_vector.json"
+    res = _run("bench_vector.py", "--ns", "1,4", "--repeats", "1", "--budget", "0.01",
+               "--fresh", "1", "--out", str(out))
+    assert json.loads(out.read_text()) == res
+    row = res["vector"]["manipulator"]["4"]
+    for key in ("native_bare", "native_wrapped", "sync_bare", "sync_wrapped"):
+        assert row[key] > 0 and row[f"{key}_cpu"] > 0
+    assert row["ratio_native_over_sync_bare"] > 0
+    assert res["single"]["manipulator"]["bare_steps_per_s"] > 0
+    fresh = res["fresh"]["manipulator"]
+    assert all(fresh[k] > 0 for k in ("import_s", "make_s", "reset_s", "first_step_s"))
+    assert set(res["verdict"]) >= {"single_arm_bare_cpu", "first_step_arm", "import_simgap"}

@@ -50,6 +50,15 @@ def check_action(action: object, shape: tuple[int, ...], what: str) -> np.ndarra
     Raises:
         EnvError: one line naming the shape/dtype/value that is wrong.
     """
+    a = _float_array(action, shape, what)
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        _not_finite(a, what)
+    return a
+
+
+def _float_array(action: object, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """The action as an array of real floating dtype and exact ``shape`` (not copied)."""
     try:
         a = np.asarray(action)
     except Exception as err:  # ragged lists and the like
@@ -59,14 +68,16 @@ def check_action(action: object, shape: tuple[int, ...], what: str) -> np.ndarra
                        f"point {what} of shape {shape} (e.g. numpy float32/float64)")
     if a.shape != shape:
         raise EnvError(f"action must have shape {shape} ({what}), got shape {a.shape}")
-    a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)):
-        raise EnvError(f"action contains NaN or inf: {a!r} ({what}); the step was not taken")
     return a
 
 
+def _not_finite(a: np.ndarray, what: str) -> None:
+    raise EnvError(f"action contains NaN or inf: {a.astype(np.float64)!r} ({what}); the step "
+                   f"was not taken")
+
+
 def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:
-    """Validate an action (:func:`check_action`) and clip it into the box [low, high].
+    """Validate an action as :func:`check_action` does and clip it into the box [low, high].
 
     Args:
         action: array of shape ``low.shape``, real floating dtype.
@@ -80,9 +91,12 @@ def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str)
     Raises:
         EnvError: wrong shape or dtype, or a NaN/inf entry (the env state is left untouched).
     """
-    a = check_action(action, low.shape, what)
+    a = _float_array(action, low.shape, what)
+    if a.dtype != np.float64 and a.dtype != np.float32:  # float16, longdouble: exact cast
+        a = a.astype(np.float64)
     out = np.empty_like(low)
-    _finite_clip(a, low, high, out)
+    if not _finite_clip(a, low, high, out):  # the finiteness check and the clip in one call
+        _not_finite(a, what)
     return out
 
 

@@ -34,8 +34,8 @@ from simgap.models.manipulator import (
     ManipulatorNominal,
     ManipulatorParams,
     make_plant,
-    plant_step,
     tau_d,
+    transition,
     true_residual,
 )
 
@@ -168,11 +168,8 @@ class ManipulatorFrictionEnv(PlantEnv):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply joint torques (N·m) for dt seconds."""
         u = self._action(action, "joint torques (N·m)")
-        s = self._s
-        theta = self._theta
-        g = true_residual(s, u, theta, self._la_nom)
-        tau = tau_d(s[:2], s[2:], theta)
-        s_new = plant_step(s, u, theta, self.dt, self.n_substeps)
+        s_new, g, tau = transition(self._s, u, self._theta, self._la_nom, self.dt,
+                                   self.n_substeps)
         self._s = s_new
         self._last_u = u
         self._k += 1

@@ -29,7 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import chirp as _scipy_chirp
+from numba import njit
 
 from simgap.models.manipulator import ManipulatorNominal
 
@@ -46,24 +46,61 @@ __all__ = [
 ]
 
 
-def _quintic_profile(tau: float) -> tuple[float, float, float]:
-    """Rest-to-rest quintic s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ on τ ∈ [0, 1] and its derivatives."""
+@njit(cache=True, inline="always")
+def quintic_profile(tau, two):  # pragma: no cover - compiled
+    """Rest-to-rest quintic s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ on τ ∈ [0, 1] and its derivatives.
+
+    ``two`` is 2.0 passed at run time: ``x ** two`` then stays libm's ``pow`` (what Python's
+    ``x ** 2`` calls), where a literal 2 would compile to ``x * x``, which differs from
+    ``pow`` in the last bit for about 0.1 % of inputs.
+    """
     t2 = tau * tau
     t3 = t2 * tau
     s = t3 * (10.0 - 15.0 * tau + 6.0 * t2)
-    ds = 30.0 * t2 * (1.0 - tau) ** 2
+    ds = 30.0 * t2 * (1.0 - tau) ** two
     dds = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
     return s, ds, dds
 
 
-def _segment(a: np.ndarray, b: np.ndarray, tau: float, duration: float) -> np.ndarray:
-    """Quintic from a to b (rad) at normalised time τ over ``duration`` (s), packed (6,)."""
-    s, ds, dds = _quintic_profile(tau)
-    a0, a1 = float(a[0]), float(a[1])
-    d0, d1 = float(b[0]) - a0, float(b[1]) - a1
+@njit(cache=True, inline="always")
+def segment_entries(a0, a1, b0, b1, tau, duration, two):  # pragma: no cover - compiled
+    """Quintic from (a0, a1) to (b0, b1) (rad) at normalised time τ over ``duration`` (s).
+
+    Returns (q_d1, q_d2, dq_d1, dq_d2, ddq_d1, ddq_d2) in rad, rad/s, rad/s².
+    """
+    s, ds, dds = quintic_profile(tau, two)
+    d0, d1 = b0 - a0, b1 - a1
     v = ds / duration
     acc = dds / (duration * duration)
-    return np.array([a0 + d0 * s, a1 + d1 * s, d0 * v, d1 * v, d0 * acc, d1 * acc])
+    return a0 + d0 * s, a1 + d1 * s, d0 * v, d1 * v, d0 * acc, d1 * acc
+
+
+@njit(cache=True, inline="always")
+def quintic_sample_entries(t, s0, s1, e0, e1, period, two):  # pragma: no cover - compiled
+    """:meth:`QuinticReference.sample` on scalars (the native vector env calls it per row)."""
+    if t <= 0.0:
+        return segment_entries(s0, s1, e0, e1, 0.0, period, two)
+    k, rem = divmod(t, period)
+    tau = rem / period
+    if int(k) % 2 == 0:
+        return segment_entries(s0, s1, e0, e1, tau, period, two)
+    return segment_entries(e0, e1, s0, s1, tau, period, two)
+
+
+@njit(cache=True)
+def _segment_kernel(a0, a1, b0, b1, tau, duration, two):  # pragma: no cover - compiled
+    return segment_entries(a0, a1, b0, b1, tau, duration, two)
+
+
+@njit(cache=True)
+def _quintic_kernel(t, s0, s1, e0, e1, period, two):  # pragma: no cover - compiled
+    return quintic_sample_entries(t, s0, s1, e0, e1, period, two)
+
+
+def _segment(a: np.ndarray, b: np.ndarray, tau: float, duration: float) -> np.ndarray:
+    """Quintic from a to b (rad) at normalised time τ over ``duration`` (s), packed (6,)."""
+    return np.array(_segment_kernel(float(a[0]), float(a[1]), float(b[0]), float(b[1]),
+                                    float(tau), float(duration), 2.0))
 
 
 def _pair(name: str, value: float | tuple[float, float]) -> np.ndarray:
@@ -115,13 +152,13 @@ class QuinticReference(_JointReference):
 
     def sample(self, t: float) -> np.ndarray:
         """Packed (q_d, dq_d, ddq_d) at time t (s); t < 0 holds the start point."""
-        if t <= 0.0:
-            return _segment(self.q_start, self.q_end, 0.0, self.period)
-        k, rem = divmod(float(t), self.period)
-        tau = rem / self.period
-        if int(k) % 2 == 0:
-            return _segment(self.q_start, self.q_end, tau, self.period)
-        return _segment(self.q_end, self.q_start, tau, self.period)
+        return np.array(_quintic_kernel(float(t), *self.params, 2.0))
+
+    @property
+    def params(self) -> tuple[float, float, float, float, float]:
+        """(q_start1, q_start2, q_end1, q_end2, period) for :func:`quintic_sample_entries`."""
+        return (float(self.q_start[0]), float(self.q_start[1]), float(self.q_end[0]),
+                float(self.q_end[1]), self.period)
 
 
 class RandomWaypointReference(_JointReference):
@@ -359,6 +396,8 @@ def chirp(*, front: float = 0.05, rear: float = 0.01, f0: float = 0.1, f1: float
                          f"{duration}")
 
     def base(t: np.ndarray) -> np.ndarray:
+        from scipy.signal import chirp as _scipy_chirp  # lazy: costs ~0.5 s to import
+
         return _scipy_chirp(t, f0=f0, t1=duration, f1=f1, method="linear", phi=-90.0)
 
     return SteeringProgram(name="chirp", duration=float(duration),

@@ -104,6 +104,24 @@ class BaseNominalModel:
         """Map an env action to the model input u (default: identity)."""
         return np.asarray(action, dtype=np.float64)
 
+    # Row-batched forms for vector envs (``VectorIdentifierWrapper``); models with kernels
+    # override them with one call, these defaults loop over the rows.
+    def states(self, obs: np.ndarray) -> np.ndarray:
+        """:meth:`state` of every row of ``obs`` (N, …), shape (N, n)."""
+        return np.stack([np.asarray(self.state(o), dtype=np.float64).reshape(-1) for o in obs])
+
+    def inputs(self, actions: np.ndarray) -> np.ndarray:
+        """:meth:`input` of every row of ``actions`` (N, …), shape (N, m)."""
+        if type(self).input is BaseNominalModel.input:
+            return np.array(actions, dtype=np.float64).reshape(len(actions), -1)
+        return np.stack([np.asarray(self.input(a), dtype=np.float64).reshape(-1)
+                         for a in actions])
+
+    def f_rows(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """:meth:`f` of every row of x (N, n), u (N, m), shape (N, n)."""
+        return np.stack([np.asarray(self.f(xi, ui), dtype=np.float64).reshape(-1)
+                         for xi, ui in zip(x, u, strict=True)])
+
     def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Nominal state derivative dx/dt = f(x, u); subclasses implement it."""
         raise NotImplementedError

@@ -35,7 +35,8 @@ from simgap.models.effects import (
     on_channel,
     stderr_of,
 )
-from simgap.models.integrators import rk4
+from simgap.models.integrators import rk4_combine, rk4_stage
+from simgap.models.nbcache import guard_cache
 from simgap.models.slots import Slots
 from simgap.models.tires import MagicFormulaTire, linear_force, magic_formula, relaxation_rate
 
@@ -151,16 +152,15 @@ def nominal_derivative(x, u, theta):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
-def plant_forces(s, u, theta):  # pragma: no cover - compiled
-    """True axle forces (N) and the steady-state slip angles (rad) of the plant."""
+@njit(cache=True, inline="always")
+def _forces(s0, s1, s2, s3, s4, s5, u1, u2, theta):  # pragma: no cover - compiled
     vx, tire, c_mf, e_mf = theta[VX], theta[TIRE_MODEL], theta[MF_C], theta[MF_E]
     relax_f, relax_r, lag = theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
-    d_f = s[4] if lag > 0.0 else u[0]
-    d_r = s[5] if lag > 0.0 else u[1]
-    af_ss, ar_ss = slip_angles(s[0], s[1], d_f, d_r, vx, theta[LF], theta[LR])
-    af = s[2] if relax_f > 0.0 else af_ss
-    ar = s[3] if relax_r > 0.0 else ar_ss
+    d_f = s4 if lag > 0.0 else u1
+    d_r = s5 if lag > 0.0 else u2
+    af_ss, ar_ss = slip_angles(s0, s1, d_f, d_r, vx, theta[LF], theta[LR])
+    af = s2 if relax_f > 0.0 else af_ss
+    ar = s3 if relax_r > 0.0 else ar_ss
     if tire > 0.5:
         fzf, fzr = axle_loads(theta)
         fyf = magic_formula(af, theta[C_AF], fzf, theta[MU], c_mf, e_mf)
@@ -172,28 +172,72 @@ def plant_forces(s, u, theta):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def plant_forces(s, u, theta):  # pragma: no cover - compiled
+    """True axle forces (N) and the steady-state slip angles (rad) of the plant."""
+    return _forces(s[0], s[1], s[2], s[3], s[4], s[5], u[0], u[1], theta)
+
+
+@njit(cache=True, inline="always")
+def _derivative(s0, s1, s2, s3, s4, s5, u1, u2, theta):  # pragma: no cover - compiled
+    vx, relax_f, relax_r, lag = theta[VX], theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
+    fyf, fyr, af_ss, ar_ss = _forces(s0, s1, s2, s3, s4, s5, u1, u2, theta)
+    dvy, dr = body_derivative(s0, s1, fyf, fyr, vx, theta)
+    d2 = relaxation_rate(s2, af_ss, vx, relax_f) if relax_f > 0.0 else 0.0
+    d3 = relaxation_rate(s3, ar_ss, vx, relax_r) if relax_r > 0.0 else 0.0
+    d4 = (u1 - s4) / lag if lag > 0.0 else 0.0
+    d5 = (u2 - s5) / lag if lag > 0.0 else 0.0
+    return dvy + theta[AY0], dr + theta[DR0], d2, d3, d4, d5
+
+
+@njit(cache=True)
 def plant_derivative(s, u, theta):  # pragma: no cover - compiled
     """True dynamics of the 6-entry plant state (see the module docstring)."""
-    vx, relax_f, relax_r, lag = theta[VX], theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
-    fyf, fyr, af_ss, ar_ss = plant_forces(s, u, theta)
-    dvy, dr = body_derivative(s[0], s[1], fyf, fyr, vx, theta)
-    out = np.zeros(6)
-    out[0] = dvy + theta[AY0]
-    out[1] = dr + theta[DR0]
-    if relax_f > 0.0:
-        out[2] = relaxation_rate(s[2], af_ss, vx, relax_f)
-    if relax_r > 0.0:
-        out[3] = relaxation_rate(s[3], ar_ss, vx, relax_r)
-    if lag > 0.0:
-        out[4] = (u[0] - s[4]) / lag
-        out[5] = (u[1] - s[5]) / lag
+    out = np.empty(6)
+    out[0], out[1], out[2], out[3], out[4], out[5] = _derivative(
+        s[0], s[1], s[2], s[3], s[4], s[5], u[0], u[1], theta)
     return out
 
 
-@njit(cache=False)  # takes a kernel argument: numba cannot cache it
+@njit(cache=True, inline="always")
+def plant_rk4(s0, s1, s2, s3, s4, s5, u1, u2, theta, dt, n_sub):  # pragma: no cover
+    """:func:`plant_derivative` advanced by dt (s) with n_sub RK4 sub-steps, on scalars.
+
+    The same operations in the same order as ``integrators.rk4(plant_derivative, ...)``
+    (stage formulas :func:`~simgap.models.integrators.rk4_stage` / ``rk4_combine``), so
+    bit-identical to it without an array per stage (a test pins the equality).
+    """
+    h = dt / n_sub
+    half = 0.5 * h
+    h6 = h / 6.0
+    for _ in range(n_sub):
+        a0, a1, a2, a3, a4, a5 = _derivative(s0, s1, s2, s3, s4, s5, u1, u2, theta)
+        b0, b1, b2, b3, b4, b5 = _derivative(
+            rk4_stage(s0, half, a0), rk4_stage(s1, half, a1), rk4_stage(s2, half, a2),
+            rk4_stage(s3, half, a3), rk4_stage(s4, half, a4), rk4_stage(s5, half, a5),
+            u1, u2, theta)
+        c0, c1, c2, c3, c4, c5 = _derivative(
+            rk4_stage(s0, half, b0), rk4_stage(s1, half, b1), rk4_stage(s2, half, b2),
+            rk4_stage(s3, half, b3), rk4_stage(s4, half, b4), rk4_stage(s5, half, b5),
+            u1, u2, theta)
+        d0, d1, d2, d3, d4, d5 = _derivative(
+            rk4_stage(s0, h, c0), rk4_stage(s1, h, c1), rk4_stage(s2, h, c2),
+            rk4_stage(s3, h, c3), rk4_stage(s4, h, c4), rk4_stage(s5, h, c5), u1, u2, theta)
+        s0, s1, s2, s3, s4, s5 = (rk4_combine(s0, h6, a0, b0, c0, d0),
+                                  rk4_combine(s1, h6, a1, b1, c1, d1),
+                                  rk4_combine(s2, h6, a2, b2, c2, d2),
+                                  rk4_combine(s3, h6, a3, b3, c3, d3),
+                                  rk4_combine(s4, h6, a4, b4, c4, d4),
+                                  rk4_combine(s5, h6, a5, b5, c5, d5))
+    return s0, s1, s2, s3, s4, s5
+
+
+@njit(cache=True)
 def plant_step(s, u, theta, dt, n_sub):  # pragma: no cover - compiled
-    """Advance the plant by dt (s) with n_sub RK4 sub-steps (the env's step)."""
-    return rk4(plant_derivative, s, u, theta, dt, n_sub)
+    """Advance the plant by dt (s) with n_sub RK4 sub-steps (disk-cached; see plant_rk4)."""
+    out = np.empty(6)
+    out[0], out[1], out[2], out[3], out[4], out[5] = plant_rk4(
+        s[0], s[1], s[2], s[3], s[4], s[5], u[0], u[1], theta, dt, n_sub)
+    return out
 
 
 @njit(cache=True)
@@ -555,3 +599,7 @@ def make_plant(params: BicycleParams | None = None, vx: float = 20.0, *,
     mf = tire if tire is not None else MagicFormulaTire()
     return PLANT_SCHEMA.plant(p, tuple(inst) + tuple(effects), vx=check_vx(vx), mf_C=mf.C,
                               mf_E=mf.E)
+
+
+guard_cache(globals(), ("simgap.models.integrators", "simgap.models.slots",
+                        "simgap.models.tires"))

@@ -16,23 +16,37 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, inline="always")
+def rk4_stage(x, c, k):  # pragma: no cover - compiled
+    """One RK4 stage point x + c·k (c = h/2 or h), the one place of that formula."""
+    return x + c * k
+
+
+@njit(cache=True, inline="always")
+def rk4_combine(x, h6, k1, k2, k3, k4):  # pragma: no cover - compiled
+    """The RK4 update x + (h/6)·(k1 + 2 k2 + 2 k3 + k4), the one place of that formula."""
+    return x + h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 @njit(cache=False)
 def rk4_step(deriv, x, u, theta, h):  # pragma: no cover - compiled
     """One classical Runge-Kutta step of length ``h`` seconds with ``u`` held constant."""
     n = x.shape[0]
     tmp = np.empty(n)
+    half = 0.5 * h
     k1 = deriv(x, u, theta)
     for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * k1[i]
+        tmp[i] = rk4_stage(x[i], half, k1[i])
     k2 = deriv(tmp, u, theta)
     for i in range(n):
-        tmp[i] = x[i] + 0.5 * h * k2[i]
+        tmp[i] = rk4_stage(x[i], half, k2[i])
     k3 = deriv(tmp, u, theta)
     for i in range(n):
-        tmp[i] = x[i] + h * k3[i]
+        tmp[i] = rk4_stage(x[i], h, k3[i])
     k4 = deriv(tmp, u, theta)
+    h6 = h / 6.0
     for i in range(n):
-        tmp[i] = x[i] + (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        tmp[i] = rk4_combine(x[i], h6, k1[i], k2[i], k3[i], k4[i])
     return tmp
 
 

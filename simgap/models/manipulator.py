@@ -36,7 +36,8 @@ from simgap.models.effects import (
     stderr_of,
 )
 from simgap.models.friction import FRICTION_FIELDS, FrictionParams, joint_friction
-from simgap.models.integrators import rk4
+from simgap.models.integrators import rk4_combine, rk4_stage
+from simgap.models.nbcache import guard_cache
 from simgap.models.slots import Slots
 
 #: Layout of :attr:`ManipulatorParams.array`.
@@ -244,15 +245,30 @@ def tau_d(q, dq, theta):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True, inline="always")
+def _momentum_entries(q2, dq1, dq2, la):  # pragma: no cover - compiled
+    m11, m12, m22 = _mass_entries(q2, la)
+    return m11 * dq1 + m12 * dq2, m12 * dq1 + m22 * dq2
+
+
 @njit(cache=True)
 def momentum_state(obs, la):  # pragma: no cover - compiled
     """Observation (q, dq) → identifier state (q, p = M(q) dq) (thesis eq. 2.3)."""
-    m11, m12, m22 = _mass_entries(obs[1], la)
     out = np.empty(4)
     out[0] = obs[0]
     out[1] = obs[1]
-    out[2] = m11 * obs[2] + m12 * obs[3]
-    out[3] = m12 * obs[2] + m22 * obs[3]
+    out[2], out[3] = _momentum_entries(obs[1], obs[2], obs[3], la)
+    return out
+
+
+@njit(cache=True)
+def momentum_states(obs, la):  # pragma: no cover - compiled
+    """:func:`momentum_state` of every row of ``obs`` (N, 4)."""
+    out = np.empty((obs.shape[0], 4))
+    for i in range(obs.shape[0]):
+        out[i, 0] = obs[i, 0]
+        out[i, 1] = obs[i, 1]
+        out[i, 2], out[i, 3] = _momentum_entries(obs[i, 1], obs[i, 2], obs[i, 3], la)
     return out
 
 
@@ -269,30 +285,43 @@ def velocity_state(x, la):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True, inline="always")
+def _nominal_entries(x1, x2, x3, x4, u1, u2, la):  # pragma: no cover - compiled
+    m11, m12, m22 = _mass_entries(x2, la)
+    det = m11 * m22 - m12 * m12
+    dq1 = (m22 * x3 - m12 * x4) / det
+    dq2 = (m11 * x4 - m12 * x3) / det
+    c11, c12, c21 = _coriolis_entries(x2, dq1, dq2, la)
+    g1, g2 = _gravity_entries(x1, x2, la)
+    # (Cᵀ dq)_1 and (Cᵀ dq)_2 (C22 = 0)
+    return dq1, dq2, c11 * dq1 + c21 * dq2 - g1 + u1, c12 * dq1 - g2 + u2
+
+
 @njit(cache=True)
 def nominal_derivative(x, u, la):  # pragma: no cover - compiled
     """Nominal f(x, u) of thesis eq. 2.3 in the (q, p) state."""
-    m11, m12, m22 = _mass_entries(x[1], la)
-    det = m11 * m22 - m12 * m12
-    dq1 = (m22 * x[2] - m12 * x[3]) / det
-    dq2 = (m11 * x[3] - m12 * x[2]) / det
-    c11, c12, c21 = _coriolis_entries(x[1], dq1, dq2, la)
-    g1, g2 = _gravity_entries(x[0], x[1], la)
     out = np.empty(4)
-    out[0] = dq1
-    out[1] = dq2
-    out[2] = c11 * dq1 + c21 * dq2 - g1 + u[0]   # (Cᵀ dq)_1
-    out[3] = c12 * dq1 - g2 + u[1]               # (Cᵀ dq)_2, C22 = 0
+    out[0], out[1], out[2], out[3] = _nominal_entries(x[0], x[1], x[2], x[3], u[0], u[1], la)
+    return out
+
+
+@njit(cache=True)
+def nominal_derivatives(x, u, la):  # pragma: no cover - compiled
+    """:func:`nominal_derivative` of every row of x (N, 4), u (N, 2)."""
+    out = np.empty((x.shape[0], 4))
+    for i in range(x.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = _nominal_entries(
+            x[i, 0], x[i, 1], x[i, 2], x[i, 3], u[i, 0], u[i, 1], la)
     return out
 
 
 @njit(cache=True, inline="always")
-def _plant_acc(q1, q2, dq1, dq2, u, theta):  # pragma: no cover - compiled
+def _plant_acc(q1, q2, dq1, dq2, u1, u2, theta):  # pragma: no cover - compiled
     m11, m12, m22 = _mass_entries(q2, theta)
     c11, c12, c21 = _coriolis_entries(q2, dq1, dq2, theta)
     g1, g2 = _gravity_entries(q1, q2, theta)
-    r1 = u[0] - (c11 * dq1 + c12 * dq2) - g1 - _tau_d_joint(0, q1, dq1, theta)
-    r2 = u[1] - c21 * dq1 - g2 - _tau_d_joint(1, q2, dq2, theta)
+    r1 = u1 - (c11 * dq1 + c12 * dq2) - g1 - _tau_d_joint(0, q1, dq1, theta)
+    r2 = u2 - c21 * dq1 - g2 - _tau_d_joint(1, q2, dq2, theta)
     det = m11 * m22 - m12 * m12
     return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
 
@@ -300,7 +329,7 @@ def _plant_acc(q1, q2, dq1, dq2, u, theta):  # pragma: no cover - compiled
 @njit(cache=True)
 def plant_acceleration(s, u, theta):  # pragma: no cover - compiled
     """True joint acceleration ddq (rad/s²) of the plant from s = (q, dq) and torques u."""
-    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
+    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u[0], u[1], theta)
     out = np.empty(2)
     out[0] = a1
     out[1] = a2
@@ -314,7 +343,7 @@ def plant_derivative(s, u, theta):  # pragma: no cover - compiled
     ``theta`` is :func:`plant_array` (layout :data:`PLANT`: link parameters, per-joint
     friction rows, per-joint bias/spring rows).
     """
-    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
+    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u[0], u[1], theta)
     out = np.empty(4)
     out[0] = s[2]
     out[1] = s[3]
@@ -323,10 +352,56 @@ def plant_derivative(s, u, theta):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=False)  # takes a kernel argument: numba cannot cache it
+@njit(cache=True, inline="always")
+def _stage(q1, q2, dq1, dq2, c, k1, k2, k3, k4):  # pragma: no cover - compiled
+    return (rk4_stage(q1, c, k1), rk4_stage(q2, c, k2), rk4_stage(dq1, c, k3),
+            rk4_stage(dq2, c, k4))
+
+
+@njit(cache=True, inline="always")
+def plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub):  # pragma: no cover - compiled
+    """:func:`plant_derivative` advanced by dt (s) with n_sub RK4 sub-steps, on scalars.
+
+    The same floating-point operations in the same order as
+    ``integrators.rk4(plant_derivative, ...)`` (its stage formulas are
+    :func:`~simgap.models.integrators.rk4_stage` / ``rk4_combine``), so bit-identical to it,
+    without an array per stage (a test pins the equality).
+    """
+    h = dt / n_sub
+    half = 0.5 * h
+    h6 = h / 6.0
+    for _ in range(n_sub):
+        a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+        t0, t1, t2, t3 = _stage(q1, q2, dq1, dq2, half, dq1, dq2, a1, a2)
+        b1, b2 = _plant_acc(t0, t1, t2, t3, u1, u2, theta)
+        v0, v1, v2, v3 = _stage(q1, q2, dq1, dq2, half, t2, t3, b1, b2)
+        c1, c2 = _plant_acc(v0, v1, v2, v3, u1, u2, theta)
+        w0, w1, w2, w3 = _stage(q1, q2, dq1, dq2, h, v2, v3, c1, c2)
+        d1, d2 = _plant_acc(w0, w1, w2, w3, u1, u2, theta)
+        q1, q2, dq1, dq2 = (rk4_combine(q1, h6, dq1, t2, v2, w2),
+                            rk4_combine(q2, h6, dq2, t3, v3, w3),
+                            rk4_combine(dq1, h6, a1, b1, c1, d1),
+                            rk4_combine(dq2, h6, a2, b2, c2, d2))
+    return q1, q2, dq1, dq2
+
+
+@njit(cache=True)
 def plant_step(s, u, theta, dt, n_sub):  # pragma: no cover - compiled
-    """Advance the plant by dt (s) with n_sub RK4 sub-steps (the env's step)."""
-    return rk4(plant_derivative, s, u, theta, dt, n_sub)
+    """Advance the plant by dt (s) with n_sub RK4 sub-steps (disk-cached; see plant_rk4)."""
+    out = np.empty(4)
+    out[0], out[1], out[2], out[3] = plant_rk4(s[0], s[1], s[2], s[3], u[0], u[1], theta,
+                                               dt, n_sub)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _true_residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom):  # pragma: no cover
+    a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+    m11, m12, m22 = _mass_entries(q2, la_nom)
+    c11, c12, c21 = _coriolis_entries(q2, dq1, dq2, la_nom)
+    g1, g2 = _gravity_entries(q1, q2, la_nom)
+    return (c11 * dq1 + c12 * dq2 + g1 + m11 * a1 + m12 * a2 - u1,
+            c21 * dq1 + g2 + m12 * a1 + m22 * a2 - u2)
 
 
 @njit(cache=True)
@@ -336,14 +411,43 @@ def true_residual(s, u, theta, la_nom):  # pragma: no cover - compiled
     g = d/dt [q; M_nom(q) dq] − f_nom(x) = (0, 0, C_nom dq + G_nom + M_nom ddq_true − u),
     which equals (0, 0, −tau_d) when the plant's rigid body is the nominal one.
     """
-    a1, a2 = _plant_acc(s[0], s[1], s[2], s[3], u, theta)
-    m11, m12, m22 = _mass_entries(s[1], la_nom)
-    c11, c12, c21 = _coriolis_entries(s[1], s[2], s[3], la_nom)
-    g1, g2 = _gravity_entries(s[0], s[1], la_nom)
     out = np.zeros(4)
-    out[2] = c11 * s[2] + c12 * s[3] + g1 + m11 * a1 + m12 * a2 - u[0]
-    out[3] = c21 * s[2] + g2 + m12 * a1 + m22 * a2 - u[1]
+    out[2], out[3] = _true_residual_entries(s[0], s[1], s[2], s[3], u[0], u[1], theta, la_nom)
     return out
+
+
+@njit(cache=True, inline="always")
+def residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom):  # pragma: no cover - compiled
+    """(g[2], g[3], tau_d1, tau_d2) at s = (q, dq), u: :func:`true_residual`, :func:`tau_d`."""
+    g3, g4 = _true_residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom)
+    return g3, g4, _tau_d_joint(0, q1, dq1, theta), _tau_d_joint(1, q2, dq2, theta)
+
+
+@njit(cache=True, inline="always")
+def transition_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom, dt,
+                       n_sub):  # pragma: no cover - compiled
+    """One env transition on scalars: (next state (4), g[2:] (2), tau_d (2)) at s_k, u_k.
+
+    The single env's :func:`transition` and the native vector env share it.
+    """
+    g3, g4, tau1, tau2 = residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom)
+    n1, n2, n3, n4 = plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub)
+    return n1, n2, n3, n4, g3, g4, tau1, tau2
+
+
+@njit(cache=True)
+def transition(s, u, theta, la_nom, dt, n_sub):  # pragma: no cover - compiled
+    """The env's fused step kernel: (s_{k+1}, true g(x_k, u_k) (4,), tau_d(s_k) (2,)).
+
+    Equal bit for bit to :func:`plant_step`, :func:`true_residual` and :func:`tau_d` called
+    one by one; disk-cached (``cache=True``), so a fresh process does not recompile it.
+    """
+    s_new = np.empty(4)
+    g = np.zeros(4)
+    tau = np.empty(2)
+    (s_new[0], s_new[1], s_new[2], s_new[3], g[2], g[3], tau[0],
+     tau[1]) = transition_entries(s[0], s[1], s[2], s[3], u[0], u[1], theta, la_nom, dt, n_sub)
+    return s_new, g, tau
 
 
 def plant_array(params: ManipulatorParams, friction: FrictionParams | None = None,
@@ -401,6 +505,15 @@ class ManipulatorNominal(MechanicalNominalModel):
     def state(self, obs: np.ndarray) -> np.ndarray:
         """Observation (q, dq) → identifier state (q, p = M(q) dq)."""
         return momentum_state(np.asarray(obs, dtype=np.float64), self._la)
+
+    def states(self, obs: np.ndarray) -> np.ndarray:
+        """:meth:`state` of every row of ``obs`` (N, 4) in one kernel call."""
+        return momentum_states(np.ascontiguousarray(obs, dtype=np.float64), self._la)
+
+    def f_rows(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """:meth:`f` of every row of x (N, 4), u (N, 2) in one kernel call."""
+        return nominal_derivatives(np.ascontiguousarray(x, dtype=np.float64),
+                                   np.ascontiguousarray(u, dtype=np.float64), self._la)
 
     def observation(self, x: np.ndarray) -> np.ndarray:
         """Identifier state (q, p) → observation (q, dq = M(q)⁻¹ p)."""
@@ -738,3 +851,7 @@ def make_plant(params: ManipulatorParams | None = None, *,
     return PLANT_SCHEMA.plant(params, friction_effects(friction)
                               + disturbance_effects(disturbance) + tuple(effects),
                               coulomb_sigma=sigma)
+
+
+guard_cache(globals(), ("simgap.models.friction", "simgap.models.integrators",
+                        "simgap.models.slots"))

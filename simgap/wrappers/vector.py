@@ -20,6 +20,14 @@ Info keys (gymnasium vector convention: an (N, …) array plus a boolean ``_key`
 (when the model has ``physical_residual``; ``axle_force_residual_estimate`` for the bicycle),
 and ``identifier_frozen`` (bool). Reset semantics as for
 :class:`~simgap.wrappers.IdentifierWrapper`: a seeded reset restores the reset point.
+
+When every row shares one nominal model object (the native vector envs: ``gym.make_vec``'s
+default mode) and the model has the row-batched ``states`` / ``inputs`` / ``f_rows`` of
+:class:`~simgap.models.base.BaseNominalModel`, a step makes no per-row Python calls: the model
+kernels take all rows at once (bit-identical to the per-row calls). Otherwise (the sync vector
+env: one model per sub-env) the model is called row by row. Angles named by the model's
+``periodic_states`` are fed as the representatives nearest to each row's x̂ and the reported
+x̂ and estimation error are wrapped into (−π, π], as in the single-env wrapper.
 """
 
 from __future__ import annotations
@@ -33,8 +41,8 @@ from gymnasium.vector import AutoresetMode
 from simgap.envs._common import check_reset
 from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
 from simgap.identifiers.config import check_kind, preset
-from simgap.models.base import NominalModel
-from simgap.wrappers.identifier_wrapper import action_to_input
+from simgap.models.base import NominalModel, wrap_angle
+from simgap.wrappers.identifier_wrapper import action_to_input, periodic_indices
 
 
 class VectorIdentifierWrapper(gym.vector.VectorWrapper):
@@ -47,13 +55,15 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         config: identifier config (default: ``preset("auto", kind, dt=model.dt)``).
         seed: seed of the (shared) initial weights.
         reset_identifier_on_seed: a seeded reset restores the reset point (default True).
-        threads: passed to :class:`~simgap.identifiers.BatchIdentifier` (``None``: numba's
-            threads from 256 sub-envs up; ``False`` if this process forks workers later).
+        threads: passed to :class:`~simgap.identifiers.BatchIdentifier`. Default ``False``
+            (one core): numba's threads gained 1.35-1.55x on an idle machine and lost 4-46x
+            at load 2.3-2.8 on the shared 2-core machine (issue 17); ``True`` on a machine of
+            your own, ``None`` for the batch's own rule (threads from 256 rows up).
     """
 
     def __init__(self, env: gym.vector.VectorEnv, identifier: str = "integral", *,
                  frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True, threads: bool | None = None) -> None:
+                 reset_identifier_on_seed: bool = True, threads: bool | None = False) -> None:
         super().__init__(env)
         models = tuple(env.get_attr("nominal_model"))
         for mdl in models:
@@ -81,6 +91,9 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         self._physical = [getattr(mdl, "physical_residual", None) for mdl in models]
         self._is_bicycle = getattr(m0, "name", "") == "bicycle"
         self._n, self._m = n, m
+        self._batched = all(mdl is m0 for mdl in models) and all(
+            callable(getattr(m0, name, None)) for name in ("states", "inputs", "f_rows"))
+        self._periodic = periodic_indices(m0)
         self._x: np.ndarray | None = None
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
 
@@ -98,6 +111,8 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         self._reset_point = self.identifier.state_dict()
 
     def _states(self, obs: Any) -> np.ndarray:
+        if self._batched:
+            return np.asarray(self.nominal_models[0].states(obs), dtype=np.float64)
         return np.stack([np.asarray(mdl.state(o), dtype=np.float64).reshape(-1)
                          for mdl, o in zip(self.nominal_models, obs, strict=True)])
 
@@ -132,12 +147,11 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         space = self.env.single_action_space
         applied = infos.get("applied_action")
         if applied is not None and np.asarray(infos.get("_applied_action", True)).all():
-            acts = list(np.asarray(applied))
+            acts = np.asarray(applied)
             space = None  # already what acted
         else:
-            acts = list(gym.vector.utils.iterate(self.env.action_space, actions))
-        u = np.stack([action_to_input(mdl, space, a)
-                      for mdl, a in zip(self.nominal_models, acts, strict=True)])
+            acts = actions
+        u = self._inputs(space, acts)
         x = self._x
         obs_now = self._states(obs)
         x_next = obs_now.copy()
@@ -154,22 +168,36 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
                     x_next[i] = np.asarray(self.nominal_models[i].state(finals[i]),
                                            dtype=np.float64).reshape(-1)
                 restart = done
-        f = np.stack([np.asarray(mdl.f(x[i], u[i]), dtype=np.float64).reshape(-1)
-                      for i, mdl in enumerate(self.nominal_models)])
+        per = self._periodic
+        if per.size:
+            x, x_next = self._unwrap(per, x, x_next)
+        if self._batched:
+            f = np.asarray(self.nominal_models[0].f_rows(x, u), dtype=np.float64)
+        else:
+            f = np.stack([np.asarray(mdl.f(x[i], u[i]), dtype=np.float64).reshape(-1)
+                          for i, mdl in enumerate(self.nominal_models)])
         ident = self.identifier
         g = ident.step(x, u, f, x_next, learn=learn)
         valid = learn
+        x_hat, x_tilde = ident.x_hat, ident.x_tilde
+        if per.size:
+            ident.wrap_observer(per)
+            x_hat[:, per] = wrap_angle(x_hat[:, per])
+            x_tilde[:, per] = wrap_angle(x_tilde[:, per])
         infos["residual_estimate"] = g
         infos["_residual_estimate"] = valid.copy()
-        infos["state_estimate"] = ident.x_hat
+        infos["state_estimate"] = x_hat
         infos["_state_estimate"] = valid.copy()
-        infos["estimation_error"] = ident.x_tilde
+        infos["estimation_error"] = x_tilde
         infos["_estimation_error"] = valid.copy()
         infos["identifier_frozen"] = np.full(nn, ident.frozen)
         infos["_identifier_frozen"] = np.ones(nn, dtype=bool)
-        if self._physical[0] is not None:
+        if self._physical[0] is not None and self._batched:
+            phys = np.asarray(self._physical[0](x, g), dtype=np.float64).reshape(nn, -1)
+        elif self._physical[0] is not None:
             phys = np.stack([np.asarray(pr(x[i], g[i]), dtype=np.float64).reshape(-1)
                              for i, pr in enumerate(self._physical)])
+        if self._physical[0] is not None:
             infos["physical_residual_estimate"] = phys
             infos["_physical_residual_estimate"] = valid.copy()
             if self._is_bicycle:
@@ -181,3 +209,36 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             self._autoreset = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
         return obs, rewards, terms, truncs, infos
+
+    # ------------------------------------------------------------------ helpers
+    def _inputs(self, space: gym.Space | None, acts: Any) -> np.ndarray:
+        """The input u of every row: actions (clipped to a Box ``space``) via ``model.input``."""
+        if self._batched:
+            a = np.asarray(acts, dtype=np.float64)
+            if isinstance(space, gym.spaces.Box):
+                a = np.clip(a, space.low, space.high)
+            return np.asarray(self.nominal_models[0].inputs(a), dtype=np.float64)
+        rows = list(gym.vector.utils.iterate(self.env.action_space, acts)) \
+            if space is not None else list(np.asarray(acts))
+        return np.stack([action_to_input(mdl, space, a)
+                         for mdl, a in zip(self.nominal_models, rows, strict=True)])
+
+    def _unwrap(self, per: np.ndarray, x: np.ndarray, x_next: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of (x_k, x_{k+1}) with angles moved by whole turns next to each row's x̂.
+
+        As :func:`~simgap.wrappers.identifier_wrapper.unwrap_pair` per row: the reference is
+        x̂_k where the row's observer is initialised (not for baseline 2), else x_k itself.
+        """
+        x = x.copy()
+        x_next = x_next.copy()
+        step = wrap_angle(x_next[:, per] - x[:, per])
+        ident = self.identifier
+        if ident.kind != "minibatch":
+            obs = ident._field("observer")  # [x̂ (n) | z (n) | initialised]
+            ready = obs[:, 2 * self._n] != 0.0
+            ref = obs[:, per]
+            moved = ref + wrap_angle(x[:, per] - ref)
+            x[:, per] = np.where(ready[:, None], moved, x[:, per])
+        x_next[:, per] = x[:, per] + step
+        return x, x_next

@@ -1,0 +1,253 @@
+"""The speed bar of issue 17 in one run: native vs sync vector envs, wrapped vs bare, single env.
+
+Measured here, in one process, interleaved (every repeat runs each variant once, in turn)
+and reported as medians over ``--repeats``:
+
+* env-steps/s of the native vector env (``gym.make_vec(id, N)``, the registered
+  ``vector_entry_point``) and of the sync one (``vectorization_mode="sync"``) at each N,
+  bare and with :class:`~simgap.wrappers.VectorIdentifierWrapper` (integral law);
+* single-env steps/s of the bare env class (as ``bench_envs.py``);
+* in fresh processes (warm numba cache): ``import simgap``, the first ``gym.make``, its
+  ``reset`` and the first ``step``.
+
+Rates are given per wall second and per CPU second of this process (``*_cpu``: the one-core
+rate when the machine is shared); ratios (native/sync, wrapped/bare) come from the same
+repeat and are the robust numbers on a loaded machine. The load average is recorded before
+and after. The sweep numbers are copied from ``results/bench_sweeps.json`` (their own run
+and load); the diagnosis memory per sample is measured by the diagnosis scaling benchmark
+(issue 13) and marked as measured elsewhere unless its JSON is present.
+
+    .venv/bin/python benchmarks/bench_vector.py [--ns 1,16,256,1024] [--repeats 5] \
+        [--budget 0.4] [--fresh 5] [--out benchmarks/results/bench_vector.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import simgap
+from simgap.wrappers import VectorIdentifierWrapper
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+ENVS = {"manipulator": simgap.MANIPULATOR_ID, "bicycle": simgap.BICYCLE_ID}
+#: Targets of issue 17 (env-steps/s at N >= 256 on one core; ratios at N = 256).
+TARGETS = {"manipulator": {"native_at_256": 250_000.0, "ratio_at_256": 7.0},
+           "bicycle": {"native_at_256": 500_000.0, "ratio_at_256": 10.0},
+           "wrapped_over_bare": 0.85, "single_arm_steps_per_s": 80_000.0,
+           "first_step_s": 0.3, "import_s": 0.2}
+FRESH = """
+import time
+t0 = time.perf_counter()
+import simgap
+t1 = time.perf_counter()
+import gymnasium as gym
+import numpy as np
+env = gym.make(simgap.{env_id})
+t2 = time.perf_counter()
+env.reset(seed=0)
+t3 = time.perf_counter()
+env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+t4 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
+"""
+
+
+def _has_native(env_id: str) -> bool:
+    return gym.spec(env_id).vector_entry_point is not None
+
+
+def _make(env_id: str, n: int, mode: str, wrapped: bool):
+    kw = {} if mode == "native" else {"vectorization_mode": "sync"}
+    env = gym.make_vec(env_id, num_envs=n, **kw)
+    return VectorIdentifierWrapper(env) if wrapped else env
+
+
+def _rate(env, n: int, budget: float) -> tuple[float, float]:
+    """(env-steps per wall s, per CPU s) of ``env.step`` with zero actions for ~budget s."""
+    a = np.zeros(env.action_space.shape, dtype=np.float32)
+    env.step(a)  # warm-up (compilation, first-call costs)
+    steps = 0
+    w0, c0 = time.perf_counter(), time.process_time()
+    while True:
+        for _ in range(4):
+            env.step(a)
+        steps += 4
+        wall = time.perf_counter() - w0
+        if wall >= budget:
+            break
+    cpu = time.process_time() - c0
+    return steps * n / wall, steps * n / max(cpu, 1e-9)
+
+
+def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int) -> dict:
+    variants = [("native", False), ("native", True), ("sync", False), ("sync", True)]
+    out: dict = {}
+    for name, env_id in ENVS.items():
+        if not _has_native(env_id):
+            out[name] = {"native": "not built (no vector_entry_point registered)"}
+            continue
+        rows = {}
+        for n in ns:
+            envs = {}
+            for mode, wrapped in variants:
+                if mode == "sync" and n > sync_max_n:
+                    continue
+                e = _make(env_id, n, mode, wrapped)
+                e.reset(seed=0)
+                envs[(mode, wrapped)] = e
+            samples: dict = {k: [] for k in envs}
+            for _ in range(repeats):  # interleaved: each variant once per repeat
+                for key, e in envs.items():
+                    samples[key].append(_rate(e, n, budget))
+            row = {}
+            for (mode, wrapped), s in samples.items():
+                tag = f"{mode}_{'wrapped' if wrapped else 'bare'}"
+                row[tag] = statistics.median(r[0] for r in s)
+                row[f"{tag}_cpu"] = statistics.median(r[1] for r in s)
+            if ("sync", False) in samples:
+                row["ratio_native_over_sync_bare"] = statistics.median(
+                    a[1] / b[1] for a, b in zip(samples[("native", False)],
+                                                 samples[("sync", False)], strict=True))
+                row["ratio_native_over_sync_wrapped"] = statistics.median(
+                    a[1] / b[1] for a, b in zip(samples[("native", True)],
+                                                 samples[("sync", True)], strict=True))
+            row["ratio_wrapped_over_bare_native"] = statistics.median(
+                a[1] / b[1] for a, b in zip(samples[("native", True)],
+                                             samples[("native", False)], strict=True))
+            rows[str(n)] = row
+            for e in envs.values():
+                e.close()
+            print(f"{name} N={n}: " + ", ".join(f"{k} {v:,.0f}" for k, v in row.items()
+                                                 if not k.startswith("ratio")),
+                  file=sys.stderr)
+        out[name] = rows
+    return out
+
+
+def _single(repeats: int, budget: float) -> dict:
+    from simgap.envs import BicycleTireEnv, ManipulatorFrictionEnv
+
+    out = {}
+    for name, cls in (("manipulator", ManipulatorFrictionEnv), ("bicycle", BicycleTireEnv)):
+        env = cls()
+        env.reset(seed=0)
+        samples = [_rate(_Single(env), 1, budget) for _ in range(repeats)]
+        out[name] = {"bare_steps_per_s": statistics.median(s[0] for s in samples),
+                     "bare_steps_per_cpu_s": statistics.median(s[1] for s in samples)}
+    return out
+
+
+class _Single:
+    """A single env seen through the ``_rate`` interface (no autoreset needed: 1 episode)."""
+
+    def __init__(self, env: gym.Env) -> None:
+        self.env = env
+        self.action_space = env.action_space
+
+    def step(self, a: np.ndarray) -> None:
+        self.env.step(a)
+
+
+def _fresh(runs: int) -> dict:
+    """Medians over fresh processes (the first run warms numba's cache and is dropped)."""
+    out = {}
+    for name in ENVS:
+        env_id = "MANIPULATOR_ID" if name == "manipulator" else "BICYCLE_ID"
+        code = FRESH.format(env_id=env_id)
+        times = []
+        for _ in range(runs + 1):
+            proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                  check=True, cwd=ROOT)
+            times.append([float(v) for v in proc.stdout.split()])
+        times = times[1:]
+        keys = ("import_s", "make_s", "reset_s", "first_step_s")
+        out[name] = {k: statistics.median(t[i] for t in times) for i, k in enumerate(keys)}
+        out[name]["make_reset_step_s"] = statistics.median(sum(t[1:]) for t in times)
+    return out
+
+
+def _elsewhere() -> dict:
+    sweeps = RESULTS / "bench_sweeps.json"
+    res: dict = {}
+    if sweeps.exists():
+        s = json.loads(sweeps.read_text())
+        res["sweeps"] = {"source": "benchmarks/results/bench_sweeps.json (its own run)",
+                         "seeds": s.get("seeds"), "case": s.get("case"),
+                         "wall_s": {k: v["wall_s"] for k, v in s["runs"].items()},
+                         "load_before": {k: v["load_before"] for k, v in s["runs"].items()},
+                         "identical_to_serial": s.get("identical_to_serial")}
+    else:
+        res["sweeps"] = "measured elsewhere (benchmarks/bench_sweeps.py); no JSON found"
+    res["diagnosis_rss_per_sample"] = (
+        "measured elsewhere (issue 13 scaling benchmark, not in this branch)")
+    return res
+
+
+def _verdict(res: dict) -> dict:
+    v: dict = {}
+    for name in ENVS:
+        rows = res["vector"].get(name)
+        if not isinstance(rows, dict) or "256" not in rows:
+            continue
+        t = TARGETS[name]
+        r = rows["256"]
+        best = max(rows[n]["native_bare_cpu"] for n in rows if int(n) >= 256)
+        v[name] = {"native_at_256_up_cpu": {"measured": best, "target": t["native_at_256"],
+                                            "met": best >= t["native_at_256"]}}
+        if "ratio_native_over_sync_bare" in r:
+            q = r["ratio_native_over_sync_bare"]
+            v[name]["ratio_at_256"] = {"measured": q, "target": t["ratio_at_256"],
+                                       "met": q >= t["ratio_at_256"]}
+        w = r["ratio_wrapped_over_bare_native"]
+        v[name]["wrapped_over_bare_at_256"] = {"measured": w,
+                                               "target": TARGETS["wrapped_over_bare"],
+                                               "met": w >= TARGETS["wrapped_over_bare"]}
+    s = res["single"]["manipulator"]["bare_steps_per_cpu_s"]
+    v["single_arm_bare_cpu"] = {"measured": s, "target": TARGETS["single_arm_steps_per_s"],
+                                "met": s >= TARGETS["single_arm_steps_per_s"]}
+    if res["fresh"]:
+        f = res["fresh"]["manipulator"]
+        v["first_step_arm"] = {"measured": f["first_step_s"], "target": TARGETS["first_step_s"],
+                               "met": f["first_step_s"] <= TARGETS["first_step_s"]}
+        v["import_simgap"] = {"measured": f["import_s"], "target": TARGETS["import_s"],
+                              "met": f["import_s"] <= TARGETS["import_s"]}
+    return v
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ns", default="1,16,256,1024")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--budget", type=float, default=0.4, help="seconds per timed sample")
+    ap.add_argument("--sync-max-n", type=int, default=1024)
+    ap.add_argument("--fresh", type=int, default=5, help="fresh processes (0: skip)")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args()
+    ns = [int(n) for n in args.ns.split(",")]
+    res: dict = {"cpus": os.cpu_count(), "repeats": args.repeats, "budget_s": args.budget,
+                 "load_before": os.getloadavg()}
+    res["vector"] = _vector(ns, args.repeats, args.budget, args.sync_max_n)
+    res["single"] = _single(args.repeats, args.budget)
+    res["fresh"] = _fresh(args.fresh) if args.fresh > 0 else {}
+    res["load_after"] = os.getloadavg()
+    res.update(_elsewhere())
+    res["verdict"] = _verdict(res)
+    text = json.dumps(res, indent=1)
+    if args.out is not None:
+        args.out.write_text(text + "\n")
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+"""What the native vector envs share: spaces, per-row seeding, action checks, info arrays.
+
+A native vector env advances all N sub-envs in one numba call over structure-of-arrays state
+(``(N, n)`` arrays), with Gymnasium 1.x ``NEXT_STEP`` autoreset (the default of
+``gym.make_vec``): the step after a sub-env terminated or was truncated only resets it
+(reward 0, not terminated, not truncated, its info the reset info) and ignores its action.
+Its results equal ``gym.make_vec(id, N, vectorization_mode="sync")`` bit for bit, including
+the per-row ``np_random`` streams (seed ``s`` → rows ``s, s + 1, …``), the ``TimeLimit``
+truncation and the info arrays with their ``_key`` masks.
+
+The sub-env's constructor checks the keyword arguments and provides the plant (read
+through :class:`~simgap.models.effects.Plant`), the nominal model and the spaces; the
+kernels are the models' own physics functions.
+
+Threads: the kernels run on one core. A vector step of the arm at N = 256 takes ≈ 1 ms, so
+numba's thread start and join (tens of µs) would pay only on an idle machine; on the shared
+2-core machine they lost (issue 17), hence none.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from simgap.envs._common import check_count, check_reset
+from simgap.errors import EnvError
+
+
+class NativeVectorEnv(gym.vector.VectorEnv):
+    """Base of the native vector envs (subclasses set ``_kernel_step`` and the info keys).
+
+    Args:
+        single: one sub-env built with the user's keyword arguments (template: spaces,
+            plant, nominal model).
+        num_envs: N.
+        max_episode_steps: ``TimeLimit`` of each row (``None``: never truncate).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, single: gym.Env, num_envs: int,
+                 max_episode_steps: int | None) -> None:
+        self.num_envs = check_count("num_envs", num_envs)
+        if max_episode_steps is not None:
+            check_count("max_episode_steps", max_episode_steps)
+        self.max_episode_steps = max_episode_steps
+        self.single_env = single
+        self.single_observation_space = single.observation_space
+        self.single_action_space = single.action_space
+        self.observation_space = batch_space(single.observation_space, self.num_envs)
+        self.action_space = batch_space(single.action_space, self.num_envs)
+        self.nominal_model = single.nominal_model
+        self._low = np.ascontiguousarray(single._low)
+        self._high = np.ascontiguousarray(single._high)
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._was_reset = False
+
+    # ------------------------------------------------------------------ plant
+    @property
+    def plant(self) -> Any:
+        """The truth shared by every row (see the sub-env's ``plant``)."""
+        return self.single_env.plant
+
+    @plant.setter
+    def plant(self, plant: Any) -> None:
+        self.single_env.plant = plant  # checked there; rows read it from the next step on
+
+    @property
+    def unwrapped(self) -> NativeVectorEnv:
+        """The env itself (no wrappers inside)."""
+        return self
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """``name`` of every row (the rows share one sub-env template)."""
+        return (getattr(self.single_env, name),) * self.num_envs
+
+    # ------------------------------------------------------------------ seeding
+    def _rng(self, i: int) -> np.random.Generator:
+        rng = self._rngs[i]
+        if rng is None:  # as gymnasium's Env.np_random: unseeded → fresh entropy
+            rng, _ = seeding.np_random()
+            self._rngs[i] = rng
+        return rng
+
+    def _seed(self, seed: int | list[int | None] | None) -> None:
+        if seed is None:
+            return
+        seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) \
+            else list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"If seeds are passed as a list the length must match "
+                             f"num_envs={self.num_envs} but got length={len(seeds)}.")
+        for i, s in enumerate(seeds):
+            if s is not None:
+                self._rngs[i], _ = seeding.np_random(s)
+
+    # ------------------------------------------------------------------ actions
+    def _actions(self, actions: Any, what: str) -> np.ndarray:
+        """The (N, m) float64 actions, checked as the sub-env checks one (one error line)."""
+        check_reset(self._was_reset, type(self).__name__)
+        a = np.asarray(actions)
+        shape = (self.num_envs, *self.single_action_space.shape)
+        if a.dtype.kind != "f":
+            raise EnvError(f"actions have dtype {a.dtype}; expected real floating-point {what} "
+                           f"of shape {shape}")
+        if a.shape != shape:
+            raise EnvError(f"actions must have shape {shape} ({what}), got shape {a.shape}")
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        bad = ~np.isfinite(a).all(axis=1) & ~self._autoreset  # reset rows ignore theirs
+        if bad.any():
+            rows = np.flatnonzero(bad)
+            raise EnvError(f"actions of rows {rows.tolist()} contain NaN or inf ({what}); the "
+                           f"step was not taken")
+        return a
+
+    @staticmethod
+    def _masks(info: dict[str, Any], rows: np.ndarray | None = None) -> dict[str, Any]:
+        """Add gymnasium's ``_key`` masks (all True, or ``rows``) to the info arrays."""
+        out: dict[str, Any] = {}
+        for key, value in info.items():
+            out[key] = value
+            out[f"_{key}"] = np.ones(value.shape[0], dtype=bool) if rows is None else rows
+        return out
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Nothing to release."""
