@@ -87,8 +87,13 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
                          f"noise {c['noise_rms']:.3g}{unit} ({state} noise)")
         for r in mm["regions"]:
             lines.append(f"  where: {r['channel']}: {r['text']}")
-    for e in data["effects"]:
-        lines.append(f"  found: {e['summary']}")
+    shares = data.get("explained", {}).get("effects", [])
+    for i, e in enumerate(data["effects"]):
+        if len(shares) == len(data["effects"]) and "text" in e:
+            lines.append(f"  found: {e['text']}, {100 * shares[i]['share']:.0f} % of the "
+                         "held-out residual (additive share)")
+        else:
+            lines.append(f"  found: {e['summary']}")
     for w in data.get("warnings", []):
         lines.append(f"  warning: {w['text']}")
     if mm["significant"]:

@@ -50,18 +50,20 @@ def html_page(data: dict[str, Any], pngs: Mapping[str, bytes],
         data: the report dict to render (with fallbacks, as for report.md).
         pngs: figure file name -> PNG bytes; a figure that is missing (``--no-figures``)
             is replaced by a one-line note instead of a broken image.
-        markdown: report.md's text builder, called as ``markdown(data, figure=...)``.
+        markdown: report.md's text builder, called as ``markdown(data)``; its image
+            references (figure file names) are replaced by the embedded PNGs.
     """
-    missing = "#figure-not-written"
-
-    def src(name: str) -> str:
-        return data_uri(pngs[name]) if name in pngs else missing
-
     md = MarkdownIt("commonmark", {"html": False}).enable("table")
-    body = md.render(markdown(data, figure=src))
-    body = re.sub(f'<img src="{missing}" alt="([^"]*)" ?/?>',
-                  r"<em>(figure “\1” not written: the report was made without figures)</em>",
-                  body)
+    # rendered with the plain file names (parsing a long data URI is slow), then swapped
+    body = md.render(markdown(data))
+
+    def embed(m: re.Match) -> str:
+        name, alt = html.unescape(m.group(1)), m.group(2)
+        if name in pngs:
+            return f'<img src="{data_uri(pngs[name])}" alt="{alt}" />'
+        return f"<em>(figure “{alt}” not written: the report was made without figures)</em>"
+
+    body = re.sub(r'<img src="([^"]*)" alt="([^"]*)" ?/?>', embed, body)
     title = html.escape(f"simgap diagnosis: {data.get('recording', '')}")
     return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
             f"<title>{title}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n{body}"
