@@ -25,8 +25,6 @@ from typing import Any
 
 import numpy as np
 
-from simgap.diagnosis.fit import MIN_GAIN, MIN_REL
-
 
 def _pct(x: Any) -> str:
     return f"{100.0 * float(x):.0f} %" if _is_num(x) else "–"
@@ -228,10 +226,8 @@ def with_fallbacks(report: Any) -> dict[str, Any]:
         data["tried"] = _tried_from_history(sel.history)
         data["_tried_source"] = (
             "the forward selection's history; gain: reduction of the noise-whitened held-out "
-            "squared residual when the effect is added to those already named; selection "
-            f"thresholds: accepted if the gain is at least {MIN_GAIN:g} per test sample of "
-            f"its channels and {100 * MIN_REL:g} % of the remaining error (no statistical "
-            "test was recorded)")
+            "squared residual when the effect is added to those already named (no "
+            "statistical test was recorded)")
     if "identifiability" not in data and sel is not None and data.get("effects"):
         ident = _identifiability_from_fit(sel.fit)
         if ident is not None:
