@@ -15,9 +15,14 @@ the last), so an interrupted job keeps balanced, usable results; ``--resume`` sk
 already in it. Writes ``rl_residual.json`` and ``rl_residual.png`` (learning curves: mean
 over seeds with a 95 % t-interval band). Progress on stderr.
 
-Usage (one command; about 60 min on one core with the defaults, see docs/downstream.md):
+Usage (one command; about 60-70 min of one core with the defaults, see docs/downstream.md):
     nohup .venv/bin/python benchmarks/rl_residual.py > rl.log 2>&1 &
     .venv/bin/python benchmarks/rl_residual.py --quick      # CI: 1 seed, a few hundred steps
+Split over processes (same total compute, less wall time), then merge:
+    .venv/bin/python benchmarks/rl_residual.py --seeds 0 1 2 --name rl_a &
+    .venv/bin/python benchmarks/rl_residual.py --seeds 3 4 --name rl_b &
+    .venv/bin/python benchmarks/rl_residual.py --merge benchmarks/results/rl_a.json \
+        benchmarks/results/rl_b.json
 """
 
 from __future__ import annotations
@@ -90,6 +95,42 @@ def load_string() -> str:
         return "unknown"
 
 
+def merge(parts: list[Path], path: Path) -> dict:
+    """Combine the runs of JSON outputs with equal settings but for their seeds.
+
+    Parts may be interrupted runs (``"complete": false``); seeds that did not finish with
+    every variant are dropped, so both variants keep the same seeds.
+    """
+    from simgap.control.figures import rl_curves_figure
+
+    datas = [json.loads(p.read_text()) for p in parts]
+    strip = [{k: v for k, v in d["settings"].items() if k != "seeds"} for d in datas]
+    if any(s != strip[0] for s in strip):
+        sys.exit("--merge: the parts differ in settings other than seeds")
+    runs = sorted((r for d in datas for r in d["runs"]), key=lambda r: (r["seed"], r["variant"]))
+    pairs = {(r["seed"], r["variant"]) for r in runs}
+    if len(pairs) != len(runs):
+        sys.exit("--merge: a seed and variant occurs in more than one part")
+    from simgap.control.rl import VARIANTS
+
+    # an interrupted part may end with half a seed: keep only seeds run with every variant
+    whole = {s for s, _ in pairs if all((s, v) in pairs for v in VARIANTS)}
+    runs = [r for r in runs if r["seed"] in whole]
+    res = {**datas[0], "complete": True, "settings": {**datas[0]["settings"],
+                                    "seeds": sorted({r["seed"] for r in runs})},
+           "runs": runs, "summary": summarise(runs),
+           "wall_s_total": sum(d["wall_s_total"] for d in datas),
+           "wall_s_note": "sum over the merged parts (processes that ran at the same time)",
+           "merged_from": [{"file": str(p), "seeds": d["settings"]["seeds"],
+                            "wall_s": d["wall_s_total"], "load_at_start": d["load_at_start"],
+                            "load_at_end": d["load_at_end"]} for p, d in zip(parts, datas,
+                                                                           strict=True)]}
+    write_json(path, res)
+    rl_curves_figure(runs, res["settings"]["steps_per_run"], path.with_suffix(".png"))
+    print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
+    return res
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=5_000, help="env steps per run")
@@ -102,6 +143,9 @@ def main(argv: list[str] | None = None) -> dict:
                     help="keep the runs already in the output JSON (same settings)")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--name", default=None, help="output stem (default rl_residual)")
+    ap.add_argument("--merge", type=Path, nargs="+", default=None,
+                    help="combine complete JSON outputs of the same settings run for different "
+                         "seeds (e.g. two processes) into --name")
     args = ap.parse_args(argv)
     from simgap.control.figures import rl_curves_figure
     from simgap.control.rl import RL_INFO_KEYWORDS, RL_TASK_ID, VARIANTS, RLTask, train_agent
@@ -123,6 +167,8 @@ def main(argv: list[str] | None = None) -> dict:
                 "task": {**task.__dict__, "mu_range": list(task.mu_range)},
                 "observation_scale": "ResidualObservation scale='running' (per-component "
                                      "cumulative RMS of ĝ), clip ±10"}
+    if args.merge:
+        return merge(args.merge, path)
     runs: list[dict] = []
     if args.resume and path.exists():
         old = json.loads(path.read_text())

@@ -94,3 +94,15 @@ def test_rl_benchmark_quick_variant(tmp_path):
     assert data["complete"] and len(data["runs"]) == 2
     assert data["summary"]["plain"]["seeds"] == [0] == res["summary"]["residual"]["seeds"]
     assert (tmp_path / "rl_residual_quick.png").stat().st_size > 10_000
+    # a second "process" with seed 1 (and an unfinished seed 2), merged into one result
+    other = json.loads(json.dumps(data))
+    for run in other["runs"]:
+        run["seed"] = 1
+    other["runs"].append({**other["runs"][0], "seed": 2})
+    other["settings"]["seeds"] = [1, 2]
+    (tmp_path / "b.json").write_text(json.dumps(other))
+    merged = mod.main(["--merge", str(tmp_path / "rl_residual_quick.json"),
+                       str(tmp_path / "b.json"), "--out", str(tmp_path), "--name", "m"])
+    assert merged["settings"]["seeds"] == [0, 1] and len(merged["runs"]) == 4
+    assert merged["summary"]["plain"]["seeds"] == [0, 1]
+    assert (tmp_path / "m.png").exists()

@@ -17,9 +17,10 @@ def _pyplot() -> Any:
 
 
 def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
-    """Learning curves of ``train_agent`` runs to a PNG: mean over seeds ± 95 % t-interval.
+    """Learning curves of ``train_agent`` runs to a PNG (mean over seeds ± 95 % t-interval).
 
-    Left: the deterministic evaluation return (``run["evals"]``, if recorded) against env
+    Each seed is a thin line; the axis is symmetric-log (linear within ±10). Left: the
+    deterministic evaluation return (``run["evals"]``, if recorded) against env
     steps; right: the training episodes' returns, interpolated on a common step grid.
     """
     from simgap.control.rl import mean_ci95
@@ -51,8 +52,10 @@ def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
             if not curves:
                 continue
             m, h = mean_ci95(np.array(curves))
+            for c in curves:  # each seed, thin
+                ax.plot(x, c, color=color, lw=0.6, alpha=0.5)
             ax.plot(x, m, color=color, marker="o" if ax is not axes[-1] else None, ms=3,
-                    label=f"{label}, {len(curves)} seeds")
+                    lw=2, label=f"{label}: mean of {len(curves)} seeds (thin: each seed)")
             ax.fill_between(x, m - h, m + h, color=color, alpha=0.2, lw=0)
     titles = (["deterministic evaluation, μ = 0.45 / 0.6 / 0.9 (mean)"] if has_evals else []) \
         + ["training episodes (stochastic policy, random μ)"]
@@ -60,13 +63,18 @@ def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
         if base:
             ax.axhline(float(np.mean(base)), color="k", ls="--", lw=1,
                        label="base controller alone (eval)")
+        # symmetric log: the returns near the base controller (≈ −4) and the blow-ups of
+        # early policies (≈ −10⁴) on one axis
+        ax.set_yscale("symlog", linthresh=10.0)
         ax.set_xlabel("environment steps (10 ms each)")
-        ax.set_ylabel("episode return (−100·Σ(r − r_ref)², rad²/s²)")
+        ax.set_ylabel("episode return (rad²/s², symlog)")
         ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=8, loc="lower right")
-    fig.suptitle("SAC residual RL, yaw-rate tracking on random-μ roads "
-                 "(mean over seeds, band: 95 % t-interval)", fontsize=11)
-    fig.tight_layout()
+    handles, labels = axes[-1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    fig.suptitle("SAC residual RL, yaw-rate tracking on random-μ roads; return "
+                 "−100·Σ(r − r_ref)² per 4 s episode (band: 95 % t-interval of the mean)",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
