@@ -239,29 +239,20 @@ class Fitter:
             out = sm(e(lin, nl, self.sig, term.index, self.ctx))
         return out * self.mask
 
-    def basis(self, term: Term, nl: np.ndarray, rows: np.ndarray | None = None
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """Linear basis (R, C, n_lin) and offset (R, C) of a term at nonlinear values nl.
-
-        Evaluated on the full grid (the filter needs it) and kept on ``rows`` only (default
-        and cached: the training rows, all a design matrix is built on), so the cache holds
-        a thinned slice instead of (N, C) arrays per term and value.
-        """
-        train = rows is None
-        rows = self.train if train else rows
+    def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Linear basis (N, C, n_lin) and offset (N, C) of a term at nonlinear values nl."""
         key = (term.key, tuple(np.round(nl, 12)))
-        if train and key in self._cache:
+        if key in self._cache:
             return self._cache[key]
         e = term.effect
         k = len(e.lin)
         off = self.output(term, np.zeros(k), nl)
-        cols = np.empty((len(rows), self.c, k))
+        cols = np.empty((self.n, self.c, k))
         for i in range(k):
             unit = np.zeros(k)
             unit[i] = 1.0
-            cols[:, :, i] = self.output(term, unit, nl)[rows] - off[rows]
-        off = off[rows]
-        if train and not e.nl:
+            cols[:, :, i] = self.output(term, unit, nl) - off
+        if not e.nl:
             self._cache[key] = (cols, off)
         return cols, off
 
@@ -274,10 +265,10 @@ class Fitter:
         self._context(terms, nls)
         xs, off = [], np.zeros((len(rows), self.c))
         for t, nl in zip(terms, nls, strict=True):
-            cols, o = self.basis(t, nl, None if rows is self.train else rows)
-            off += o
+            cols, o = self.basis(t, nl)
+            off += o[rows]
             if cols.shape[2]:
-                xs.append(cols * self.w[None, :, None])
+                xs.append(cols[rows] * self.w[None, :, None])
         x = np.concatenate(xs, axis=2).reshape(len(rows) * self.c, -1) if xs else \
             np.zeros((len(rows) * self.c, 0))
         return x, (off * self.w).ravel()
