@@ -30,76 +30,43 @@ tire_saturation term's Magic Formula on the same axle).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
 
 from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
-from simgap.models.effects import EffectSpec, FitFn, format_unit
+from simgap.models.effects import EffectSpec, FitFn, FitSpec, format_unit
 
 EffectFn = FitFn
 
 
 @dataclass(frozen=True, kw_only=True)
-class Effect:
+class Effect(FitSpec):
     """One vocabulary effect as the diagnosis fits it (built by :meth:`of`).
+
+    The fit fields (``scope``, ``lin``, ``lin_lower``, ``nl_bounds``, ``fn``, ...) are those
+    of :class:`~simgap.models.effects.FitSpec`, with units written for the channel the
+    effect is tested on. A fit that ends on a plausibility limit (any bound other than a
+    sign bound at 0) means the effect is being forced onto data it does not describe; such
+    a term is not named.
 
     Attributes:
         name: vocabulary name (``spec/diagnosis.md``).
         label: plain words for the report ("Coulomb friction").
-        scope: ``joint`` / ``axle`` (one channel, one candidate per channel), ``arm`` /
-            ``vehicle`` (all channels at once).
-        lin: linear parameter names (internal form).
-        lin_units: their units for the channel the effect is tested on.
-        lin_lower: lower bounds of the linear parameters (physical sign constraints, or
-            plausibility limits).
-        lin_upper: upper plausibility limits (default: none). A fit that ends on a
-            plausibility limit (any bound other than a sign bound at 0) means the effect is
-            being forced onto data it does not describe; such a term is not named.
-        nl: nonlinear parameter names.
-        nl_units: their units.
-        nl_bounds: (low, high) per nonlinear parameter.
-        nl_grid: starting values tried per nonlinear parameter.
-        uses_derivatives: the contribution depends on accelerations (mass-type effects).
-        generalizes: names of simpler effects this one contains as a special case (same
-            channel); ties go to the simpler one without a collinearity warning.
         needs: effects whose fitted values on the same channel its reported parameters
             include (Stribeck's breakaway Fs includes Coulomb's Fc).
-        on_input: the effect delays the input instead of adding to the dynamics (a
-            simulation applies it to the input).
-        corrects: ``(coordinate, nominal coefficient)`` pairs (see
-            :attr:`~simgap.models.effects.FitSpec.corrects`).
         nominal: the nominal's value of each corrected coordinate on the tested channel
             (set by :meth:`with_nominal`; empty: the nominal has no such term).
-        fn: the model, ``fn(lin, nl, sig, index, ctx) -> (N, n_channels)``.
-        to_report: maps internal parameters to the reported ones (see
-            :func:`identity_report`); its units are templates filled by ``unit``.
         unit: fills a unit template (:func:`~simgap.models.effects.format_unit`) for the
             channel the effect is tested on.
     """
 
     name: str
     label: str
-    scope: str
-    lin: tuple[str, ...] = ()
-    lin_units: tuple[str, ...] = ()
-    lin_lower: tuple[float, ...] = ()
-    lin_upper: tuple[float, ...] | None = None
-    nl: tuple[str, ...] = ()
-    nl_units: tuple[str, ...] = ()
-    nl_bounds: tuple[tuple[float, float], ...] = ()
-    nl_grid: tuple[tuple[float, ...], ...] = ()
-    uses_derivatives: bool = False
-    generalizes: tuple[str, ...] = ()
     needs: tuple[str, ...] = ()
-    on_input: bool = False
-    corrects: tuple[tuple[str, str], ...] = ()
     nominal: Mapping[str, float] = field(default_factory=dict)
-    fn: EffectFn = field(repr=False)
-    to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None = \
-        field(default=None, repr=False)
     unit: Callable[[str], str] = field(default=format_unit, repr=False)
 
     @classmethod
@@ -112,13 +79,8 @@ class Effect:
         fit = spec.fit
         if fit is None:
             raise ValueError(f"effect {spec.name!r} is not diagnosable (no fit side)")
-        out = cls(name=spec.name, label=spec.label, scope=fit.scope, lin=fit.lin,
-                  lin_units=fit.lin_units, lin_lower=fit.lin_lower, lin_upper=fit.lin_upper,
-                  nl=fit.nl, nl_units=fit.nl_units, nl_bounds=fit.nl_bounds,
-                  nl_grid=fit.nl_grid, uses_derivatives=fit.uses_derivatives,
-                  generalizes=fit.generalizes, needs=spec.needs, on_input=fit.on_input,
-                  corrects=fit.corrects, fn=fit.fn,
-                  to_report=fit.to_report)
+        out = cls(name=spec.name, label=spec.label, needs=spec.needs,
+                  **{f.name: getattr(fit, f.name) for f in fields(FitSpec)})
         return out.in_units(effort=effort, position=position, templates=fit)
 
     def in_units(self, *, effort: str, position: str, templates: Any = None) -> Effect:
