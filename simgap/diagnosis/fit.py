@@ -696,7 +696,7 @@ class Fitter:
         ana = identifiability.analyse(fit.jac, names, noise_std=float(np.sqrt(fit.tau)),
                                       values=fit.values())
         return {"names": names, "correlation": np.round(ana.correlation, 4).tolist(),
-                "condition": float(ana.condition),
+                "condition": float(ana.condition) if np.isfinite(ana.condition) else None,
                 "combinations": [c.describe() for c in ana.unidentifiable],
                 "_analysis": ana}
 
