@@ -150,6 +150,33 @@ def loop_means(kind: str, rows: list, runs: int, dispatcher: bool = False) -> li
     return out
 
 
+def auto_scale_cost(kind: str, rows: list, runs: int) -> dict:
+    """Cost of the running scales: ``auto`` with and without them, interleaved runs.
+
+    Without = ``preset("auto", kind, dt)`` with ``scale_rate=0`` (the auto preset before the
+    scales, same kernel); per-step means of whole loops (µs), alternating A, B, A, B …;
+    the ratio of the medians and of the best runs (the least contended, as ``timeit``
+    reports: on a loaded machine a run is either clean or preempted, so medians swing).
+    """
+    clock = time.perf_counter_ns
+    cfg = preset("auto", kind, dt=0.002)
+    cfgs = {"without_scales": cfg.replace(scale_rate=0.0), "with_scales": cfg}
+    means: dict[str, list[float]] = {k: [] for k in cfgs}
+    for run in range(runs):
+        for name, c in cfgs.items():
+            ident = make_identifier(kind, 4, 2, 0.002, config=c, seed=run)
+            step = ident.step
+            t0 = clock()
+            for xk, uk, fk, xn in rows:
+                step(xk, uk, fk, xn)
+            means[name].append((clock() - t0) / len(rows) / 1e3)
+    med = {k: float(np.median(v)) for k, v in means.items()}
+    best = {k: float(np.min(v)) for k, v in means.items()}
+    return {"median_us": med, "ratio": med["with_scales"] / med["without_scales"],
+            "best_us": best, "ratio_best": best["with_scales"] / best["without_scales"],
+            "runs": runs}
+
+
 def batched(kind: str, n_env: int, reps: int) -> dict:
     rng = np.random.default_rng(0)
     cfg = preset("manipulator", kind)
@@ -209,6 +236,8 @@ def main() -> None:
     ap.add_argument("--env-steps", type=int, default=5000)
     ap.add_argument("--batch-calls", type=int, default=200, help="calls per batched repeat")
     ap.add_argument("--out", type=Path, default=None, help="also write the JSON here")
+    ap.add_argument("--scales-only", action="store_true",
+                    help="only the running-scales cost of the auto preset (printed)")
     args = ap.parse_args()
     if min(args.runs, args.steps, args.batch, args.env_steps, args.batch_calls) < 1:
         ap.error("--runs, --steps, --batch, --env-steps and --batch-calls must be >= 1")
@@ -224,10 +253,17 @@ def main() -> None:
         "timer_overhead_ns_p50": float(np.percentile(t, 50)),
         "call_path": ("C caller (simgap.identifiers._call)" if fastcall.available()
                       else f"numba dispatcher: {fastcall.UNAVAILABLE}"),
-        "per_step": {}, "batched": {}, "env_steps_per_s": {},
+        "per_step": {}, "batched": {}, "env_steps_per_s": {}, "auto_scale_cost": {},
         "targets": {"integral_mean_us": 1.2, "integral_p999_us": 5.0,
                     "batched_us_per_instance_step": 0.3, "wrapped_env_steps_per_s": 20000},
     }
+    rows = [(x[k], u[k], f[k], x[k + 1]) for k in range(args.steps)]
+    for k in KINDS:
+        with console.status(f"auto preset, running scales on / off (interleaved): {k}"):
+            result["auto_scale_cost"][k] = auto_scale_cost(k, rows, args.runs)
+    if args.scales_only:
+        print(json.dumps(result, indent=2))
+        return
     for k in KINDS:
         with console.status(f"per-step timing: {k} ({args.runs} runs × {args.steps} steps)"):
             result["per_step"][k] = per_step(k, x, u, f, args.runs)

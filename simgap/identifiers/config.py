@@ -63,6 +63,9 @@ class IdentifierConfig:
         init: ``"uniform"``: V̂_0 uniform in ±v0_scale; ``"lecun"``: V̂_0 uniform in
             ±√(3/p) (p = n + m inputs: unit variance of V̂_0 x̄ for unit-scale inputs;
             ``v0_scale`` unused).
+        scale_rate: forgetting rate of the running input / output scales (1/s): the network
+            sees x̄ ⊘ r and outputs s ⊙ y (:mod:`~simgap.identifiers.scales`); 0 = raw
+            inputs and outputs, as printed (every thesis preset).
     """
 
     n_hidden: int = 20
@@ -80,6 +83,7 @@ class IdentifierConfig:
     max_weight_norm: float = 1e6
     normalize_gradients: bool = False
     init: Literal["uniform", "lecun"] = "uniform"
+    scale_rate: float = 0.0
 
     def __post_init__(self) -> None:
         if self.init not in ("uniform", "lecun"):
@@ -94,7 +98,7 @@ class IdentifierConfig:
                 raise IdentifierError(f"IdentifierConfig.{name} must be a positive integer, "
                                       f"got {v!r}")
         for name in ("w0_scale", "v0_scale", "eta1", "eta2", "rho1", "rho2", "lam",
-                     "max_weight_norm"):
+                     "max_weight_norm", "scale_rate"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
                     or v < 0:
@@ -183,6 +187,8 @@ AUTO_POLE_STEP = -0.25
 AUTO_MAX_OBSERVER_RATE = 20.0
 #: Adaptation bandwidth over observer bandwidth, γ / |a_d|, of the ``auto`` preset.
 AUTO_BANDWIDTH_RATIO = 0.25
+#: Forgetting rate of the running input / output scales over γ, of the ``auto`` preset.
+AUTO_SCALE_RATIO = 0.05
 
 
 def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
@@ -218,15 +224,21 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       P_upd steps moves ĝ by η Δt² of ε, and η = γ P_upd / Δt matches the observer laws'
       rate per second (γ P_upd Δt = 5/16 per burst). Buffer 1000 transitions, M = 32,
       P_upd = 5.
+    * Running scales (:mod:`~simgap.identifiers.scales`): the network sees x̄ ⊘ r and
+      outputs s ⊙ y, r and s the running RMS of each input and of each row's residual,
+      with Ŵ rescaled so that ĝ does not jump when s moves. The bound-normalised
+      steps are scale-free per layer only; inside a layer raw units decide who learns (a
+      V̂ step is b x̄ᵀ: 20 m/s of speed next to 0.02 rad of steering gives the steering 10⁻⁶
+      of the step, and LeCun weights on inputs of tens of units saturate tanh, where
+      1 − σ² ≈ 0 stops the hidden layer). Forgetting rate γ/20: the scales move twenty
+      times slower than the weights (4 s at the arm's γ = 5 s⁻¹), so they describe the
+      operating range, not the current sample.
     * Initialisation: Ŵ_0 = 0 (ĝ ≡ 0 until there is an error: the nominal model as it
       is, in any units) and LeCun-type V̂_0 uniform in ±√(3/p) (unit variance of V̂ x̄ for
-      inputs of unit scale). No leakage (ρ = 0): it acts in the units of x̃, which is not
-      scale-free; the divergence guard is the weight-norm bound (1e6) and the bounded
-      normalised step.
-
-    Limits: the normalisation is per layer, not per input channel; inputs of very different
-    magnitudes (say an angle in rad next to a speed in mm/s) leave the small ones little
-    influence on the hidden layer, and tanh saturates when an input is ≫ 1 in its units.
+      the unit-RMS inputs the scales give). No leakage (ρ = 0): it acts in the units of x̃,
+      which is not scale-free; the divergence guard is the weight-norm bound (1e6), the
+      bounded normalised step, and |1 + a_d Δt| = 0.75 (the error message of a divergence
+      names a_d·Δt).
 
     Args:
         kind: identifier kind.
@@ -254,7 +266,7 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
     return IdentifierConfig(n_hidden=n_hidden, w0_scale=0.0, v0_scale=0.0, init="lecun", a_d=a_d,
                             eta1=eta, eta2=eta, rho1=0.0, rho2=0.0, lam=lam,
                             buffer_size=1000, batch_size=32, update_period=period,
-                            normalize_gradients=True)
+                            normalize_gradients=True, scale_rate=AUTO_SCALE_RATIO * gamma)
 
 
 def error_scale(kind: str, config: IdentifierConfig, dt: float) -> float:

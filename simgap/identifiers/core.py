@@ -31,25 +31,54 @@ PARALLEL_MIN_ROWS = 256
 #: The row index array of a single identifier's SGD burst (read by the kernel only).
 _ROW0 = np.zeros(1, dtype=np.int64)
 
-#: Format tag written into saved files.
-FORMAT = "simgap-identifier/2"
+#: Format tag written into saved files (3: header slot ``HP_SRATE`` and the row's scale
+#: block, :mod:`~simgap.identifiers.scales`).
+FORMAT = "simgap-identifier/3"
+#: The previous format, still read (:func:`upgrade_v2`).
+FORMAT_V2 = "simgap-identifier/2"
 
 #: Header slots (``K.HP_*``) filled from :class:`IdentifierConfig` fields, in the order of
 #: the config's fields.
 HEADER_FIELDS: dict[str, int] = {
     "n_hidden": K.HP_H, "a_d": K.HP_AD, "eta1": K.HP_ETA1, "eta2": K.HP_ETA2,
     "rho1": K.HP_RHO1, "rho2": K.HP_RHO2, "lam": K.HP_LAM, "update_period": K.HP_PERIOD,
-    "max_weight_norm": K.HP_MAXN}
+    "max_weight_norm": K.HP_MAXN, "scale_rate": K.HP_SRATE}
 #: Every header slot fixed at construction (the config's, Δt, sizes, error-signal code, c_e):
 #: a loaded state must carry exactly these values.
 FIXED_SLOTS: np.ndarray = np.array(sorted(
     {*HEADER_FIELDS.values(), K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE}), dtype=np.int64)
+#: Header size of format 2 files (before ``HP_SRATE``; no scale block at the row end).
+_HP_SIZE_V2 = 20
 
 
 def _check_int(name: str, v: Any) -> int:
     if isinstance(v, bool) or not isinstance(v, int | np.integer) or int(v) < 1:
         raise IdentifierError(f"{name} must be a positive integer, got {v!r}")
     return int(v)
+
+
+def upgrade_v2(meta: dict[str, Any], arrays: dict[str, np.ndarray]
+               ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Format 2 meta and arrays as format 3 (same identifier, no running scales).
+
+    Format 2 rows have a 20-slot header and no scale block: the header gains
+    ``HP_SRATE`` = 0 and the row an all-zero scale block; the config gains
+    ``scale_rate`` = 0. Sizes are checked later, against the identifier built from the meta.
+    """
+    meta = dict(meta)
+    cfg = dict(meta["config"])
+    cfg.setdefault("scale_rate", 0.0)
+    meta["config"] = cfg
+    meta["format"] = FORMAT
+    arrays = dict(arrays)
+    old = np.asarray(arrays["state"])
+    if old.ndim == 2 and old.shape[1] >= _HP_SIZE_V2:
+        n, m = int(meta["n_states"]), int(meta["n_inputs"])
+        new = np.zeros((old.shape[0], old.shape[1] + 1 + K.block_size.py_func(n, n + m)))
+        new[:, :_HP_SIZE_V2] = old[:, :_HP_SIZE_V2]
+        new[:, K.HP_SIZE:K.HP_SIZE + old.shape[1] - _HP_SIZE_V2] = old[:, _HP_SIZE_V2:]
+        arrays["state"] = new
+    return meta, arrays
 
 
 def sampling_rng(seed: int) -> np.random.Generator:
@@ -257,21 +286,45 @@ class IdentifierBase:
         if bad_in.size:
             raise IdentifierError(f"{self.kind} identifier: non-finite value in x, u, f or "
                                   f"x_next (row(s) {bad_in.tolist()}); identifier unchanged")
+        a_dt = self.config.a_d * self.dt
         raise IdentifierDivergedError(
             f"{self.kind} identifier diverged in row(s) {bad.tolist()}: the update would make "
             f"x̂ non-finite or a weight norm exceed max_weight_norm="
-            f"{self.config.max_weight_norm:g}; last good state kept (lower eta1/eta2 or dt)")
+            f"{self.config.max_weight_norm:g}; last good state kept. Observer pole "
+            f"1 + a_d·dt = 1 + ({self.config.a_d:g})·{self.dt:g} = {1 + a_dt:.3g} (stable "
+            f"only for −2 < a_d·dt < 0; preset('auto', kind, dt=dt) keeps it in [0.75, 1)): "
+            f"lower |a_d|, eta1/eta2 or dt")
 
     # ------------------------------------------------------------------ views
     def _W(self) -> np.ndarray:  # noqa: N802
+        """Ŵ of every row, (N, n, n_h), in raw output units (diag(s) Ŵ with running scales)."""
         ow = self._lay["ow"]
-        return self._state[:, ow:ow + self._nw].reshape(self.n_envs, self.n_states,
-                                                        self.n_hidden)
+        w = self._state[:, ow:ow + self._nw].reshape(self.n_envs, self.n_states,
+                                                     self.n_hidden)
+        if self.config.scale_rate > 0:
+            w = w * np.sqrt(self._scale_stats()[1])[:, :, None]
+        return w
 
     def _V(self) -> np.ndarray:  # noqa: N802
+        """V̂ of every row, (N, n_h, p), in raw input units.
+
+        With running scales V̂ diag(1/r); the columns of inputs without data are 0.
+        """
         ov = self._lay["ow"] + self._nw
         vt = self._state[:, ov:ov + self._nv].reshape(self.n_envs, self.n_in, self.n_hidden)
-        return vt.transpose(0, 2, 1)
+        v = vt.transpose(0, 2, 1)
+        if self.config.scale_rate > 0:
+            m_in = self._scale_stats()[0]
+            inv = np.divide(1.0, np.sqrt(m_in), out=np.zeros_like(m_in), where=m_in > 0)
+            v = v * inv[:, None, :]
+        return v
+
+    def _scale_stats(self) -> tuple[np.ndarray, np.ndarray]:
+        """Running mean squares (m_in (N, p), m_out (N, 1)) of :mod:`~simgap.identifiers.scales`."""
+        ons = K.scale_block.py_func(self.n_states, self.n_inputs, self.n_hidden)
+        p = self.n_in
+        return (self._state[:, ons + 1:ons + 1 + p],
+                self._state[:, ons + 1 + p:ons + 2 + p])
 
     def _field(self, which: str) -> np.ndarray:
         n, p = self.n_states, self.n_in

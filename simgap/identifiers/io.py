@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from simgap.identifiers.core import FORMAT
+from simgap.identifiers.core import FORMAT, FORMAT_V2, upgrade_v2
 from simgap.identifiers.errors import IdentifierError
 from simgap.outputs import write_file
 
@@ -62,12 +62,18 @@ def read_npz(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, np
     except json.JSONDecodeError as exc:
         raise IdentifierError(f"{path}: 'meta' is not valid JSON ({exc})") from None
     fmt = meta.get("format") if isinstance(meta, dict) else None
-    if fmt != FORMAT:
-        raise IdentifierError(f"{path}: format {fmt!r} is not {FORMAT!r}")
+    if fmt not in (FORMAT, FORMAT_V2):
+        raise IdentifierError(f"{path}: format {fmt!r} is not {FORMAT!r} (or the older "
+                              f"{FORMAT_V2!r})")
     for name, arr in data.items():
         if arr.dtype.kind not in "fiu":
             raise IdentifierError(f"{path}: array {name!r} has dtype {arr.dtype}, expected "
                                   "numbers (a corrupt or foreign file)")
+    if fmt == FORMAT_V2:
+        try:
+            meta, data = upgrade_v2(meta, data)
+        except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            raise load_guard(path, exc) from None
     return meta, data
 
 

@@ -61,6 +61,14 @@ from simgap.identifiers.laws import (
 )
 from simgap.identifiers.minibatch import DUE, FILLED, buffer_push, sgd_step
 from simgap.identifiers.network import forward, forward_keep
+from simgap.identifiers.scales import (
+    block_size,
+    delta_factor,
+    normalise_inputs,
+    rms,
+    scale_outputs,
+    update_scales,
+)
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
 HP_N, HP_M, HP_H, HP_MODE, HP_PERIOD, HP_ACT, HP_STATUS = 8, 9, 10, 11, 12, 13, 14
@@ -70,7 +78,10 @@ HP_NORM2 = 17
 #: c_e, the factor that turns the error signal δ into residual units (state units/s) for
 #: bound-normalised gradients; 0 = plain gradients as printed (every thesis preset).
 HP_ESCALE = 19
-HP_SIZE = 20
+#: Rate of the running input / output scales (1/s, :mod:`~simgap.identifiers.scales`);
+#: 0 = raw inputs and outputs (every thesis preset).
+HP_SRATE = 20
+HP_SIZE = 21
 
 #: Activity codes (``S[i, HP_ACT]``).
 SKIP, FROZEN, LEARN = 0.0, 1.0, 2.0
@@ -139,7 +150,8 @@ def row_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_func
     """Offsets in a state row for n states, m inputs, n_h hidden units.
 
     Returns (ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, size): weights, x̂, z,
-    initialised flag, the results ĝ_k, x̄_k, x̂_{k+1}, x̃_{k+1}, e_k, and the row size.
+    initialised flag, the results ĝ_k, x̄_k, x̂_{k+1}, x̃_{k+1}, e_k, and the row size. The
+    running scales (:mod:`~simgap.identifiers.scales`) follow e_k, at :func:`scale_block`.
     """
     p = n + m
     ow = HP_SIZE
@@ -151,7 +163,13 @@ def row_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_func
     oxh1 = oxb + p
     oxt1 = oxh1 + n
     oe = oxt1 + n
-    return ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, oe + n
+    return ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, oe + n + block_size(n, p)
+
+
+@njit(cache=True, inline="always")
+def scale_block(n, m, h):  # pragma: no cover - compiled (also called as .py_func)
+    """Offset of the row's scale block (count, m_in, m_out; after the results)."""
+    return row_layout(n, m, h)[-1] - block_size(n, n + m)
 
 
 @njit(cache=True, inline="always")
@@ -160,7 +178,8 @@ def scratch_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_
 
     Returns (tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, size): working ĝ_k, x̄_k,
     x̂_{k+1}, e_k, then x̃_k, δ, σ, pre-activations, gradient (n·n_h + p·n_h), update
-    scratch, and the size.
+    scratch, and the size. The normalised x̄ and the network output y (running scales) follow
+    the update scratch, at :func:`norm_scratch`.
     """
     p = n + m
     tg = 0
@@ -173,7 +192,17 @@ def scratch_layout(n, m, h):  # pragma: no cover - compiled (also called as .py_
     ta = ts + h
     tgw = ta + h
     tsc = tgw + n * h + h * p
-    return tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, tsc + scratch_size(n, h, p)
+    return tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, tsc + scratch_size(n, h, p) + p + 2 * n
+
+
+@njit(cache=True, inline="always")
+def norm_scratch(n, m, h):  # pragma: no cover - compiled (also called as .py_func)
+    """Scratch offsets (txn, ty) of the normalised x̄ (p) and the network output y (n).
+
+    ``ty + n`` holds the residual sample ε_k (n) of the running scales.
+    """
+    end = scratch_layout(n, m, h)[-1]
+    return end - n - m - 2 * n, end - 2 * n
 
 
 def layout(n: int, m: int, h: int) -> dict[str, int]:
@@ -181,7 +210,7 @@ def layout(n: int, m: int, h: int) -> dict[str, int]:
     names = ("ow", "oxh", "oz", "oini", "og", "oxb", "oxh1", "oxt1", "oe", "size")
     out = dict(zip(names, row_layout.py_func(n, m, h), strict=True))
     t = scratch_layout.py_func(n, m, h)
-    assert t[-1] - t[-2] == scratch_size(n, h, n + m)
+    assert t[-1] - t[-2] == scratch_size(n, h, n + m) + 3 * n + m
     return out
 
 
@@ -228,7 +257,16 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     for c in range(m):
         T[_ix(txb + n + c)] = u[_ix(i * m + c)]
     # ĝ_k with the weights before the update (the pre-activations are kept for the update)
-    forward_keep(R, ow, n, h, p, T, txb, T, ta, T, ts, T, tg)
+    rate = R[HP_SRATE]
+    ons = scale_block(n, m, h)
+    if rate > 0.0:  # running scales: ĝ = s ⊙ Ŵ tanh(V̂ (x̄ ⊘ r))
+        txn, ty = norm_scratch(n, m, h)
+        normalise_inputs(R, ons, p, T, txb, T, txn)
+        forward_keep(R, ow, n, h, p, T, txn, T, ta, T, ts, T, ty)
+        scale_outputs(R, ons, n, p, T, ty, T, tg)
+    else:
+        txn, ty = txb, tg
+        forward_keep(R, ow, n, h, p, T, txb, T, ta, T, ts, T, tg)
     mode = int(R[HP_MODE])
     observer_error(mode, T, txt, R, oz, T, te, n)  # eq. 3.8 / 3.9 (e = z_k)
     if fresh and mode == INTEGRAL:
@@ -242,14 +280,20 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         return STATUS_STATE_DIVERGED
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
+        if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
+            for r in range(n):
+                T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
+            inv = delta_factor(R, ons, p, rms(T, ty + n, n))
+            for r in range(n):
+                T[_ix(td + r)] *= inv
         leak = dt * np.sqrt(dot(T, txt, T, txt, n))
         k1 = dt * R[HP_ETA1]
         k2 = dt * R[HP_ETA2]
         ce = R[HP_ESCALE]
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
-            k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txb, T, txb, p),
+            k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
                                       dot(T, td, T, td, n), R[HP_NORM2], ce)
-        if not unified_update(R, ow, n, h, p, T, td, ts, ta, tg, T, txb, k1, k2,
+        if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
                               leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
                               tsc):
             return STATUS_DIVERGED
@@ -259,6 +303,8 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             R[_ix(oz + r)] = 0.0
     if act == LEARN and mode == INTEGRAL:
         z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
+    if act == LEARN and rate > 0.0:
+        update_scales(R, ow, n, h, p, ons, T, txb, T, ty + n, rate, dt, HP_NORM2)
     for r in range(n):
         xh1 = T[_ix(txh1 + r)]
         R[_ix(oxh + r)] = xh1
@@ -447,6 +493,8 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
     p = n + m
     ow, oxh, oz, oini, og, oxb, oxh1, oxt1, oe, size = row_layout(n, m, h)
     ts = scratch_layout(n, m, h)[6]
+    txn, ty = norm_scratch(n, m, h)
+    ons = scale_block(n, m, h)
     nfail = 0
     ndue = 0
     for i in range(nn):
@@ -464,7 +512,13 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
             R[_ix(oxb + r)] = x[_ix(io + r)]
         for c in range(m):
             R[_ix(oxb + n + c)] = u[_ix(i * m + c)]
-        forward(R, ow, n, h, p, R, oxb, T, ts, R, og)
+        rate = R[HP_SRATE]
+        if rate > 0.0:
+            normalise_inputs(R, ons, p, R, oxb, T, txn)
+            forward(R, ow, n, h, p, T, txn, T, ts, T, ty)
+            scale_outputs(R, ons, n, p, T, ty, R, og)
+        else:
+            forward(R, ow, n, h, p, R, oxb, T, ts, R, og)
         for r in range(n):
             pred = x[_ix(io + r)] + dt * (f[_ix(io + r)] + R[_ix(og + r)])  # eq. 4.2
             R[_ix(oxh1 + r)] = pred
@@ -476,6 +530,12 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
             if buffer_push(buf[i], cnt[i], R, oxb, x, f, x_next, io, dt, p, n,
                            int(R[HP_PERIOD])):
                 ndue += 1
+            if rate > 0.0:
+                # residual sample ε_k = (x_{k+1} − x_k)/Δt − f_k (eq. 4.2's one-step residual)
+                for r in range(n):
+                    T[_ix(ty + r)] = ((x_next[_ix(io + r)] - x[_ix(io + r)]) / dt
+                                      - f[_ix(io + r)])
+                update_scales(R, ow, n, h, p, ons, R, oxb, T, ty, rate, dt, HP_NORM2)
     return nfail, ndue
 
 
@@ -540,6 +600,8 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
     p = n + m
     ow = HP_SIZE
     tg, txb, txh1, te, txt, td, ts, ta, tgw, tsc, tsize = scratch_layout(n, m, h)
+    txn, ty = norm_scratch(n, m, h)
+    ons = scale_block(n, m, h)
     owner = _scratch_owner(S)
     T = raw(owner)
     S, buf, cnt, idx, rows = raw(S), raw(buf), raw(cnt), raw(idx), raw(rows)
@@ -551,7 +613,8 @@ def minibatch_sgd(S, buf, cnt, idx, rows):  # pragma: no cover - compiled
         if cnt[i, FILLED] == 0:
             continue
         ok = sgd_step(R, ow, n, h, p, buf[i], idx[j], R[HP_DT], R[HP_ETA1], R[HP_ETA2],
-                      R[HP_MAXN], HP_NORM2, T, ts, tg, td, tgw, tsc, R[HP_ESCALE])
+                      R[HP_MAXN], HP_NORM2, T, ts, tg, td, tgw, tsc, R[HP_ESCALE],
+                      ons if R[HP_SRATE] > 0.0 else -1, txn, ty)
         if ok:
             R[HP_NUPDATES] += 1.0
         else:
@@ -567,6 +630,15 @@ _PRED_SIG = types.void(float64[::1], int64, int64, int64, float64[:, ::1], float
 @_kernel(_PRED_SIG, cache=True, error_model="numpy")
 def predict_rows(R, n, m, h, xbar, res):  # pragma: no cover - compiled
     """ĝ for each row of ``xbar`` (K, p) with the weights of state row ``R`` (step's code)."""
+    p = n + m
     s = np.empty(h)
+    if R[HP_SRATE] > 0.0:
+        ons = scale_block(n, m, h)
+        t = np.empty(p + n)
+        for k in range(xbar.shape[0]):
+            normalise_inputs(R, ons, p, xbar[k], 0, t, 0)
+            forward(R, HP_SIZE, n, h, p, t, 0, s, 0, t, p)
+            scale_outputs(R, ons, n, p, t, p, res[k], 0)
+        return
     for k in range(xbar.shape[0]):
-        forward(R, HP_SIZE, n, h, n + m, xbar[k], 0, s, 0, res[k], 0)
+        forward(R, HP_SIZE, n, h, p, xbar[k], 0, s, 0, res[k], 0)

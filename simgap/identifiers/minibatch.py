@@ -24,6 +24,12 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 
 from simgap.identifiers.laws import apply_gradients, backprop, dot, normalised_rates
 from simgap.identifiers.network import forward
+from simgap.identifiers.scales import (
+    delta_factor,
+    normalise_inputs,
+    output_scale,
+    scale_outputs,
+)
 
 #: Columns of the per-identifier counters array.
 POS, FILLED, SINCE, DUE = 0, 1, 2, 3
@@ -55,7 +61,7 @@ def buffer_push(buf, cnt, R, oxb, x, f, x_next, io, dt, p, n, period):  # pragma
 
 @njit(cache=True, inline="always")
 def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, og, od, ogw,
-             osc, ce):  # pragma: no cover - compiled
+             osc, ce, ons, oxn, oy):  # pragma: no cover - compiled
     """Take one SGD step of eq. 4.4 on the mini-batch ``idx`` of ``buf``.
 
     Weights at ``R[ow:]``, their squared norms at ``R[onorm:onorm + 2]``. The gradient is
@@ -63,8 +69,11 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. With ``ce`` > 0
     the step sizes are bound-normalised (:func:`~simgap.identifiers.laws.normalised_rates`)
     with the batch means of ‖σ‖², ‖x̄‖² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
-    c_e M δ_j is sample j's residual error with c_e = 1/Δt²). Returns True if the new
-    weights were kept.
+    c_e M δ_j is sample j's residual error with c_e = 1/Δt²). With ``ons`` ≥ 0 (the row's
+    scale block) the network runs on the running scales of :mod:`~simgap.identifiers.scales`:
+    the stored x̄_j is normalised into ``T[oxn:]`` (p), the output y goes to ``T[oy:]`` (n),
+    ĝ = s ⊙ y, and the gradient is taken for δ_j ⊘ s. Returns True if the new weights were
+    kept.
     """
     m = idx.shape[0]
     for k in range(n * h + h * p):
@@ -73,16 +82,36 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     ss = 0.0
     xx = 0.0
     dd = 0.0
+    ee = 0.0  # Σ ‖ε_j‖², ε_j = −d_j / Δt the batch's residual samples (running scales)
+    inv = 1.0 / output_scale(R, ons, p) if ons >= 0 and output_scale(R, ons, p) > 0.0 \
+        else 0.0
     for j in range(m):
         row = buf[idx[j]]
-        forward(R, ow, n, h, p, row, 0, T, os, T, og)
+        if ons >= 0:
+            normalise_inputs(R, ons, p, row, 0, T, oxn)
+            forward(R, ow, n, h, p, T, oxn, T, os, T, oy)
+            scale_outputs(R, ons, n, p, T, oy, T, og)
+            xin, oin = T, oxn
+        else:
+            forward(R, ow, n, h, p, row, 0, T, os, T, og)
+            xin, oin = row, 0
         for r in range(n):
             T[_ix(od + r)] = scale * (row[_ix(p + r)] + dt * T[_ix(og + r)])
+        if ons >= 0:  # δ_j / s (capped to δ_j / s_eff after the loop)
+            for r in range(n):
+                v = row[_ix(p + r)] / dt
+                ee += v * v
+                T[_ix(od + r)] *= inv
         if ce > 0.0:
             ss += dot(T, os, T, os, h)
-            xx += dot(row, 0, row, 0, p)
+            xx += dot(xin, oin, xin, oin, p)
             dd += dot(T, od, T, od, n)
-        backprop(R, ow, n, h, p, T, od, os, row, 0, ogw, osc)
+        backprop(R, ow, n, h, p, T, od, os, xin, oin, ogw, osc)
+    if ons >= 0:  # s → s_eff = max(s, batch RMS of ε): the gradient is linear in δ
+        c = delta_factor(R, ons, p, (ee / (m * n)) ** 0.5) / inv if inv > 0.0 else 0.0
+        eta1 *= c
+        eta2 *= c
+        dd *= c * c
     if ce > 0.0:
         eta1, eta2 = normalised_rates(eta1, eta2, ss / m, xx / m, dd * m, R[onorm], ce)
     return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, onorm, osc)

@@ -118,3 +118,57 @@ def test_auto_batch_rows_equal_single_identifiers():
         for i, ident in enumerate(singles):
             np.testing.assert_array_equal(gb[i], ident.step(st[0][i], st[1][i], st[2][i],
                                                             xn[i]))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_running_scales_preserve_the_function_and_give_raw_unit_weights(kind):
+    """An output-scale update rescales Ŵ so ĝ(x̄) is unchanged; W, V are in raw units."""
+    from simgap.identifiers.network import network_forward
+    from simgap.identifiers.scales import update_scales
+
+    x, u, f = _stream(7, 300)
+    x = x * np.array([30.0, 0.02, 5.0, 1.0])  # inputs of very different magnitudes
+    ident = make_identifier(kind, 4, 2, 0.002, config=preset("auto", kind, dt=0.002), seed=0)
+    _run(ident, x, u, f, 0, 300)
+    assert ident.config.scale_rate > 0
+    xb = np.hstack([x[:20], u[:20]])
+    before = ident.predict(xb)
+    assert np.max(np.abs(before)) > 0
+    np.testing.assert_allclose(network_forward(ident.W, ident.V, xb), before, rtol=1e-9,
+                               atol=1e-12)
+    row = ident._state[0]
+    n, m, h = 4, 2, ident.n_hidden
+    ons = K.scale_block.py_func(n, m, h)
+    m_out_before = ident._scale_stats()[1].copy()
+    same_inputs = np.sqrt(ident._scale_stats()[0][0])  # v² = m: the input scales stay
+    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0,
+                  np.full(n, 3.0), 0, 50.0, 0.002, K.HP_NORM2)
+    assert not np.allclose(ident._scale_stats()[1], m_out_before)
+    np.testing.assert_allclose(ident.predict(xb), before, rtol=1e-12, atol=1e-14)
+    w = ident._state[0, K.HP_SIZE:K.HP_SIZE + n * h]
+    assert ident._state[0, K.HP_NORM2] == pytest.approx(np.sum(w * w))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_format_2_files_load_and_continue_identically(kind, tmp_path):
+    """A file of the previous format (no scale slot / block) loads as the same identifier."""
+    import json
+
+    x, u, f = _stream(8, 300)
+    cfg = preset("manipulator", kind)
+    a = make_identifier(kind, 4, 2, 0.002, config=cfg, seed=2)
+    _run(a, x, u, f, 0, 150)
+    path = a.save(tmp_path / "new.npz")
+    with np.load(path) as z:
+        data = {k: z[k] for k in z.files}
+    meta = json.loads(str(data.pop("meta")))
+    meta["format"] = "simgap-identifier/2"
+    del meta["config"]["scale_rate"]
+    st = data["state"]
+    block = 2 + 4 + 2  # count, m_in (p = 6), m_out
+    data["state"] = np.hstack([st[:, :20], st[:, 21:st.shape[1] - block]])
+    old = tmp_path / "old.npz"
+    np.savez(old, meta=np.array(json.dumps(meta)), **data)
+    b = load_identifier(old)
+    assert b.config == cfg
+    np.testing.assert_array_equal(_run(a, x, u, f, 150, 300), _run(b, x, u, f, 150, 300))

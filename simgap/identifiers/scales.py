@@ -1,0 +1,128 @@
+"""Running input and output scales of the network (the ``auto`` preset).
+
+With ``scale_rate`` > 0 the network works in normalised units:
+
+    ĝ = s · Ŵ tanh(V̂ (x̄ ⊘ r)),
+
+r_c = √⟨x̄_c²⟩ the running RMS of input c (state and input units) and s = √⟨‖ε‖²/n⟩ the
+running RMS of a residual sample ε (state units/s, one scalar for all rows): ε = ĝ_k − a_d x̃_k
+for the observer laws (the quasi-static balance of the observer error, eq. 3.1: x̃ settles
+where g − ĝ = −a_d x̃), ε = (x_{k+1} − x_k)/Δt − f_k for baseline 2 (the one-step residual
+its cost J_mb is built from, eq. 4.2). ⟨·⟩ is the exponential mean
+
+    m ← m + β (v² − m),   β = max(1/(k + 1), Δt · scale_rate)
+
+(the plain mean of the first samples, then forgetting with time constant 1/scale_rate s).
+
+Why the inputs: the step sizes of :func:`~simgap.identifiers.laws.normalised_rates` are
+scale-free per layer, but inside a layer the raw units still decide who learns. A V̂ step is
+b x̄ᵀ: an input of 20 m/s next to a steering angle of 0.02 rad gets a 10⁶ times larger share
+of ‖x̄‖², so the small inputs never move the hidden layer, and LeCun-scaled weights on raw
+inputs of tens of units saturate tanh, where (1 − σ²) ≈ 0 stops the hidden layer's gradient.
+Dividing by r gives every input unit RMS (the LeCun initialisation is then right): a
+diagonal preconditioner 1/r_c² on V̂ in raw units.
+
+Why one output scale, not one per row: the normalised steps already move every row of ĝ by
+the same fraction of its own error. A per-row s would only reweight the rows inside the
+hidden layer's error b = (I − Λ) Ŵᵀ (δ ⊘ s), and rows whose true residual is zero (the arm's
+q rows, dq/dt = M⁻¹p exactly) would have their numerical noise blown up to the weight of
+the friction rows: measured on thesis Case 1 (seed 0), the last-part error went from 7 % to
+29 % of |g|. The scalar s makes Ŵ of order one in any units, so the weight-norm bound
+(``max_weight_norm``) means the same thing for every plant.
+
+Output preservation (as "Pop-Art", van Hasselt et al. 2016): when s moves, Ŵ is rescaled by
+s / s', so ĝ(x̄) is unchanged. The input scales are not preserved that way: that multiplies
+column c of V̂ by r'_c / r_c, and an input that starts at rest (the bicycle's vy, r and
+steering before the slalom fades in) has r growing by orders of magnitude, which drove the
+hidden weights past the divergence bound on Case 2-2 (measured). Without it x̄ ⊘ r stays of
+order one, and ĝ drifts only as fast as r does (time constant 1/scale_rate).
+
+Step cap: a learning step uses s_eff = max(s, RMS of the current residual samples), so one
+step never moves the normalised output by more than its normalised error even when s is
+still the (small) mean of a plant at rest; otherwise the first excited step after a rest
+period gives Ŵ entries of ε/s ≫ 1 (measured: divergence of every kind on Case 2-2).
+
+An input with no data yet (m = 0) enters as 0. The statistics are updated after a step has
+succeeded (nothing half-written on failure) and only while learning (frozen: held).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
+
+
+@njit(cache=True, inline="always")
+def block_size(n, p):  # pragma: no cover - compiled (callable from Python too)
+    """Entries of a row's scale block: sample count k, m_in (p), m_out (1)."""
+    return 2 + p
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def normalise_inputs(R, ons, p, xb, oxb, out, oout):  # pragma: no cover - compiled
+    """x̄ ⊘ r into ``out[oout:]`` (0 where the input has no data yet, m_c = 0)."""
+    om = ons + 1
+    for c in range(p):
+        mc = R[_ix(om + c)]
+        out[_ix(oout + c)] = xb[_ix(oxb + c)] / math.sqrt(mc) if mc > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def output_scale(R, ons, p):  # pragma: no cover - compiled
+    """The output scale s = √m_out (0 before the first nonzero residual sample)."""
+    return math.sqrt(R[_ix(ons + 1 + p)])
+
+
+@njit(cache=True, inline="always")
+def scale_outputs(R, ons, n, p, y, oy, g, og):  # pragma: no cover - compiled
+    """ĝ = s · y (``g[og:]`` from the network output ``y[oy:]``)."""
+    s = output_scale(R, ons, p)
+    for r in range(n):
+        g[_ix(og + r)] = s * y[_ix(oy + r)]
+
+
+@njit(cache=True, inline="always")
+def rms(a, oa, k):  # pragma: no cover - compiled
+    """√(Σ a_i² / k) over ``a[oa : oa + k]``."""
+    acc = 0.0
+    for i in range(k):
+        v = a[_ix(oa + i)]
+        acc += v * v
+    return math.sqrt(acc / k)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def delta_factor(R, ons, p, sample_rms):  # pragma: no cover - compiled
+    """1 / s_eff, s_eff = max(s, ``sample_rms``): δ in normalised output units (0 if 0)."""
+    s = max(output_scale(R, ons, p), sample_rms)
+    return 1.0 / s if s > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def update_scales(R, ow, n, h, p, ons, xb, oxb, eps, oeps, rate, dt,
+                  onorm):  # pragma: no cover - compiled
+    """One step of the running statistics and the output-preserving rescale of Ŵ.
+
+    ``xb[oxb:]`` holds the raw x̄_k (p), ``eps[oeps:]`` the residual sample ε_k (n). The
+    squared norm ‖Ŵ‖² at ``R[onorm]`` follows the rescale (V̂ is not touched).
+    """
+    k = R[ons]
+    beta = max(1.0 / (k + 1.0), min(1.0, rate * dt))
+    om = ons + 1
+    for c in range(p):
+        old = R[_ix(om + c)]
+        v = xb[_ix(oxb + c)]
+        R[_ix(om + c)] = old + beta * (v * v - old)
+    oo = om + p
+    old = R[oo]
+    e = rms(eps, oeps, n)
+    new = old + beta * (e * e - old)
+    R[oo] = new
+    if old > 0.0 and new > 0.0 and old != new:
+        f = math.sqrt(old / new)
+        for j in range(n * h):
+            R[_ix(ow + j)] *= f
+        R[onorm] *= f * f
+    R[ons] = k + 1.0
