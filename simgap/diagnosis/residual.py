@@ -55,6 +55,10 @@ along the recording (a prismatic axis such as EMPS), M·q̈ is linear in q and t
 Savitzky–Golay signals are used as before (the kernel there changed nothing physical but
 tipped the EMPS selection between an offset and an aliased spring, a gate of the selection).
 The bicycle's equation has only first derivatives and stays on the Savitzky–Golay filter.
+For now only the built-in two-link arm uses the momentum form: on MuJoCo models it named
+the armature as an inertia mismatch (the model's M(q) and its inverse dynamics disagree
+there), so user and MuJoCo models keep the Savitzky–Golay route and main's third-difference
+noise estimate (gaps are split for them too) until they are re-validated.
 """
 
 from __future__ import annotations

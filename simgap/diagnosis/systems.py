@@ -47,6 +47,7 @@ from simgap.diagnosis.residual import (
     grid_warnings,
     noise_floor,
     noise_of,
+    noise_std,
     segmented_grid,
 )
 from simgap.errors import CustomModelError
@@ -291,12 +292,18 @@ class MechanicalSystem:
                           f"{models[v].kurtosis:.3g}, white noise gives 3)") +
                          f"; differentiating {p} instead" for v, p in bad]
         noise = noise_of(models, warn, c.q if from_q else c.dq)
+        if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
+            noise = {k: noise_std(v) for k, v in raw.items()}
+            from_q = not c.dq
         shortest = min(b - a for a, b in bounds)
         src = c.q if from_q else c.dq
         qr = np.stack([raw[k] for k in c.q], axis=1)
-        if self._constant_mass(qr):
+        if not self.is_manipulator or self._constant_mass(qr):
             # M constant: M·ddq is linear in q, the Savitzky–Golay route has no nonlinear
-            # smoothing bias in it (and keeps the published EMPS results); see residual.py
+            # smoothing bias in it (and keeps the published EMPS results); see residual.py.
+            # Other models than the built-in arm keep it too for now: on MuJoCo models the
+            # momentum form named their armature as an inertia mismatch (M(q) from the
+            # model's mass matrix does not hold everything its inverse dynamics does).
             w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
                               noise=[noise[k] for k in src], length=shortest)
             plan = _Plan(inner=Smoother(w, dt, bounds), kernel=None, velocity_from_q=from_q)
