@@ -19,10 +19,7 @@ goes through the Magic Formula of a tire_saturation term on the same axle) is ca
 context, not by state stored on the form.
 
 Not done yet (issue 12): ``prepare`` still keeps the filtered signals on the form (one form
-object per recording) instead of returning them as immutable data. What it returns
-(:class:`~simgap.diagnosis.residual.ResidualResult`, frozen) now carries the per-row
-``segment`` ids, the per-column error models, one-line ``warnings`` and the effective sample
-counts; the form keeps ``segment`` too (gaps: a rollout never crosses one).
+object per recording) instead of returning them as immutable data.
 """
 
 from __future__ import annotations
@@ -34,7 +31,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from simgap.diagnosis.residual import KernelFilter, ResidualResult, Smoother
+from simgap.diagnosis.residual import ResidualResult, Smoother
 from simgap.recordings import Recording
 
 #: A fitted or candidate term as the forms see it: (effect, channel index or None, linear
@@ -99,11 +96,8 @@ class ResidualForm(Protocol):
         derivative_names, derivative_units: the compared derivatives.
         rollout_horizon: default comparison window (s).
         columns: the recording columns the form reads (canonical names).
-        t: the time grid after :meth:`prepare` (s): uniform inside each segment.
-        smoother: the filter of the residual equation after :meth:`prepare` (the fit filters
-            every regressor with it); ``window`` (samples), ``dt`` (s), ``bounds`` (rows of
-            each segment) and ``valid(n)`` (rows whose window stays in their segment).
-        segment: segment id per row after :meth:`prepare` (gaps split a recording).
+        t: the uniform time grid after :meth:`prepare` (s).
+        smoother: the derivative filter after :meth:`prepare`.
     """
 
     name: str
@@ -116,8 +110,7 @@ class ResidualForm(Protocol):
     rollout_horizon: float
     columns: Any
     t: np.ndarray
-    smoother: Smoother | KernelFilter
-    segment: np.ndarray
+    smoother: Smoother
 
     def prepare(self, rec: Recording) -> ResidualResult:
         """Filter the recording, compute the residual and its noise floor."""

@@ -13,13 +13,9 @@ for the comparison. Two adapters exist:
   vx; residual = axle-force deviation Delta = K⁻¹(dx/dt − f(x, u; vx)) (N).
 
 An adapter is used for one recording: :meth:`prepare` stores the recording's filtered
-signals on it. The noise floor of each channel is the propagated column error (white noise or
-quantisation, :func:`simgap.diagnosis.residual.noise_floor`) combined with
-:data:`NUMERICAL_FLOOR` times the channel's modelled force/torque RMS. The mechanical
-residual is the kernel-filtered equation in momentum form (no second derivative, no
-smoothing bias; see :mod:`simgap.diagnosis.residual`); recordings with time gaps are split
-into segments (``segment`` per row), filtered per segment, and no row whose filter window
-leaves its segment is fitted.
+signals on it. The noise floor of each channel is the propagated sensor noise
+(:func:`simgap.diagnosis.residual.noise_floor`) combined with :data:`NUMERICAL_FLOOR` times the
+channel's modelled force/torque RMS.
 """
 
 from __future__ import annotations
@@ -32,23 +28,18 @@ from typing import Any
 
 import numpy as np
 from numba import njit
-from scipy.signal import lfilter, savgol_coeffs
+from scipy.signal import lfilter
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
 from simgap.diagnosis.forms import EffectContext
 from simgap.diagnosis.residual import (
-    POLYORDER,
-    KernelFilter,
     ResidualResult,
     Smoother,
     choose_window,
-    effective_counts,
-    error_models,
-    grid_warnings,
+    derivative_gain,
     noise_floor,
-    noise_of,
     noise_std,
-    segmented_grid,
+    uniform_grid,
 )
 from simgap.errors import CustomModelError
 from simgap.models import manipulator as man
@@ -100,18 +91,6 @@ STICK_WIDTHS = 3.0
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
-
-
-@dataclass(frozen=True)
-class _Plan:
-    """How a mechanical recording is filtered: inner filter and the equation's kernel.
-
-    ``kernel`` None: constant mass matrix, the Savitzky–Golay signals are used directly.
-    """
-
-    inner: Smoother
-    kernel: KernelFilter | None
-    velocity_from_q: bool
 
 
 def _held(u: np.ndarray, hold: str) -> np.ndarray:
@@ -232,122 +211,49 @@ class MechanicalSystem:
         return out
 
     # -- signals and residual ----------------------------------------------------------
-    def _signals(self, raw: Mapping[str, np.ndarray], plan: _Plan) -> dict[str, np.ndarray]:
-        """States by the inner filter, acceleration, inputs (see the module docstring)."""
-        c, sm = self.columns, plan.inner
+    def _signals(self, raw: Mapping[str, np.ndarray], sm: Smoother) -> dict[str, np.ndarray]:
+        c = self.columns
         qr = np.stack([raw[k] for k in c.q], axis=1)
         q = sm(qr)
-        dqr = None if plan.velocity_from_q else np.stack([raw[k] for k in c.dq], axis=1)
-        dq = sm(qr, 1) if dqr is None else sm(dqr)
-        if plan.kernel is not None:
-            ddq = plan.kernel(dq, 1)
+        if c.dq:
+            dqr = np.stack([raw[k] for k in c.dq], axis=1)
+            dq, ddq = sm(dqr), sm(dqr, 1)
         else:
-            ddq = sm(qr, 2) if dqr is None else sm(dqr, 1)
+            dq, ddq = sm(qr, 1), sm(qr, 2)
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
-        held = _held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold) * scale
-        return {"q": q, "dq": dq, "ddq": ddq, "u": sm(held), "u_held": held}
+        u = sm(_held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold)) * scale
+        return {"q": q, "dq": dq, "ddq": ddq, "u": u}
 
-    def _mass_rate_dq(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
-        """Ṁ(q) q̇ per row (N·m): central difference of M along q̇ (M(q ± ε q̇)), ε in s."""
-        speed = float(np.max(np.abs(dq))) if dq.size else 0.0
-        if speed == 0.0:
-            return np.zeros_like(dq)
-        eps = 1e-5 / speed
-        rate = (self.mass(q + eps * dq) - self.mass(q - eps * dq)) / (2.0 * eps)
-        return np.einsum("nij,nj->ni", rate, dq)
-
-    def _residual(self, sig: Mapping[str, np.ndarray], kernel: KernelFilter | None
-                  ) -> np.ndarray:
-        """K*[u − bias(q, q̇) + Ṁq̇] − K'*[M(q) q̇]: the filtered equation (no q̈).
-
-        Without a kernel (constant mass matrix): u − M ddq − bias(q, dq) of the filtered
-        signals.
-        """
-        q, dq = sig["q"], sig["dq"]
-        if kernel is None:
-            return sig["u"] - self.inverse_dynamics(q, dq, sig["ddq"])
-        momentum = np.einsum("nij,nj->ni", self.mass(q), dq)
-        rest = sig["u_held"] - self.inverse_dynamics(q, dq, np.zeros_like(q)) + \
-            self._mass_rate_dq(q, dq)
-        return kernel(rest) - kernel(momentum, 1)
-
-    def _constant_mass(self, q: np.ndarray) -> bool:
-        """Whether M(q) is the same at (up to 200) recorded positions (relative 1e-9)."""
-        m = self.mass(np.ascontiguousarray(q[:: max(1, len(q) // 200)]))
-        return bool(np.allclose(m, m[0], rtol=1e-9, atol=0.0))
+    def _residual(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        return sig["u"] - self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"])
 
     def prepare(self, rec: Recording) -> ResidualResult:
         """Filter the recording, compute the residual (N·m) and its noise floor."""
         c = self.columns
-        grid = segmented_grid(rec[c.t], {k: rec[k] for k in c.required if k != c.t})
-        t, raw, dt, bounds = grid.t, grid.columns, grid.dt, grid.bounds
-        warn = grid_warnings(grid)
-        models = error_models(raw, grid.segment)
-        from_q = not c.dq
-        if c.dq:
-            bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True) if models[v].heavy_tailed]
-            if bad:
-                from_q = True
-                warn += [(f"{v} is quantised (step {models[v].quantum:.4g}, a finite "
-                          "difference?)" if models[v].quantum and models[v].notes and
-                          "quantised" in models[v].notes[0] else
-                          f"{v} looks filtered upstream (kurtosis of its third differences "
-                          f"{models[v].kurtosis:.3g}, white noise gives 3)") +
-                         f"; differentiating {p} instead" for v, p in bad]
-        noise = noise_of(models, warn, c.q if from_q else c.dq)
-        if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
-            noise = {k: noise_std(v) for k, v in raw.items()}
-            from_q = not c.dq
-        shortest = min(b - a for a, b in bounds)
-        src = c.q if from_q else c.dq
-        qr = np.stack([raw[k] for k in c.q], axis=1)
-        if not self.is_manipulator or self._constant_mass(qr):
-            # M constant: M·ddq is linear in q, the Savitzky–Golay route has no nonlinear
-            # smoothing bias in it (and keeps the published EMPS results); see residual.py.
-            # Other models than the built-in arm keep it too for now: on MuJoCo models the
-            # momentum form named their armature as an inertia mismatch (M(q) from the
-            # model's mass matrix does not hold everything its inverse dynamics does).
-            w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
-                              noise=[noise[k] for k in src], length=shortest)
-            plan = _Plan(inner=Smoother(w, dt, bounds), kernel=None, velocity_from_q=from_q)
-            pre = savgol_coeffs(w, POLYORDER, deriv=0, delta=dt, use="conv")
-            vel_noise = np.asarray([noise[k] / (dt if from_q else 1.0) for k in src])
-        else:
-            inner_w = choose_window([raw[k] for k in src], dt, deriv=1 if from_q else 0,
-                                    noise=[noise[k] for k in src], length=shortest)
-            pre = savgol_coeffs(inner_w, POLYORDER, deriv=1 if from_q else 0, delta=dt,
-                                use="conv")
-            k_w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
-                                noise=[noise[k] for k in src], kind="kernel", pre=pre,
-                                length=shortest)
-            plan = _Plan(inner=Smoother(inner_w, dt, bounds),
-                         kernel=KernelFilter(k_w, dt, bounds), velocity_from_q=from_q)
-            vel_noise = np.asarray([noise[k] for k in src])
-        kernel = plan.kernel
-        smoother = kernel if kernel is not None else plan.inner
-        sig = self._signals(raw, plan)
-        res = self._residual(sig, kernel)
-        floor = noise_floor(raw, noise, lambda r: self._residual(self._signals(r, plan), kernel),
-                            res)
+        t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
+                                                    if k != c.t})
+        dt = float(t[1] - t[0])
+        diff_cols = [raw[k] for k in (c.dq or c.q)]
+        window = choose_window(diff_cols, dt, deriv=1 if c.dq else 2)
+        sm = Smoother(window, dt)
+        sig = self._signals(raw, sm)
+        res = self._residual(sig)
+        col_noise = {k: noise_std(v) for k, v in raw.items()}
+        floor = noise_floor(raw, col_noise, lambda r: self._residual(self._signals(r, sm)), res)
         model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
                                     axis=0))
         floor = np.hypot(floor, NUMERICAL_FLOOR * model_rms)
         # Coulomb smoothing: below ~2 std of the filtered velocity noise the sign is unknown.
-        gain = float(np.sqrt(np.sum(pre**2)))
-        self.coulomb_sigma = np.maximum(2.0 * vel_noise * gain, 1e-4)
-        self.plan = plan
-        self.t, self.sig, self.raw, self.smoother = t, sig, raw, smoother
-        self.segment = grid.segment
+        vel_noise = [col_noise[k] for k in c.dq] if c.dq else [
+            col_noise[k] / dt for k in c.q]
+        gain0 = derivative_gain(window, 0, dt)
+        self.coulomb_sigma = np.maximum(2.0 * np.asarray(vel_noise) * gain0, 1e-4)
+        self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
         self.held_input = _held(self._u_hold, c.input_hold)  # what an input delay shifts
-        valid = smoother.valid(len(t))
         return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
-                              smoother=smoother, resampled=grid.resampled, column_noise=noise,
-                              segment=grid.segment, column_models=models,
-                              warnings=tuple(dict.fromkeys(warn)),
-                              effective_samples=effective_counts(res, valid, grid.segment),
-                              valid=valid)
+                              smoother=sm, resampled=resampled, column_noise=col_noise)
 
     def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
         """Signals at the given rows (plus ``idx``)."""
@@ -374,11 +280,7 @@ class MechanicalSystem:
         its sign is unknowable from the velocity; those samples are left out of fitting and
         scoring for that joint (they stay in the located residual).
         """
-        sliding = np.abs(self.sig["dq"]) >= STICK_WIDTHS * self.coulomb_sigma
-        # the filter window must lie inside the row's segment. (Requiring every row of the
-        # window to slide, as the filtered equation strictly would, tipped the EMPS
-        # selection from torque_bias to an aliased spring: left as before.)
-        return sliding & self.smoother.valid(len(self.t))[:, None]
+        return np.abs(self.sig["dq"]) >= STICK_WIDTHS * self.coulomb_sigma
 
     @staticmethod
     def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -543,37 +445,28 @@ class BicycleSystem:
     def prepare(self, rec: Recording) -> ResidualResult:
         """Filter the recording, compute Delta = K⁻¹ g (N) and its noise floor."""
         c = self.columns
-        grid = segmented_grid(rec[c.t], {k: rec[k] for k in c.required if k != c.t})
-        t, raw, dt, bounds = grid.t, grid.columns, grid.dt, grid.bounds
+        t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
+                                                    if k != c.t})
         if np.any(raw[c.vx] <= 1.0):
             i = int(np.argmax(raw[c.vx] <= 1.0))
             raise ValueError(f"{rec.name}: column {c.vx!r} row {i + 1}: vx = {raw[c.vx][i]!r} "
                              "m/s, the bicycle model needs vx > 1 m/s")
-        warn = grid_warnings(grid)
-        models = error_models(raw, grid.segment)
-        noise = noise_of(models, warn, c.q)
-        window = choose_window([raw[k] for k in c.q], dt, deriv=1,
-                               noise=[noise[k] for k in c.q],
-                               length=min(b - a for a, b in bounds))
-        sm = Smoother(window, dt, bounds)
+        dt = float(t[1] - t[0])
+        window = choose_window([raw[k] for k in c.q], dt, deriv=1)
+        sm = Smoother(window, dt)
         sig = self._signals(raw, sm)
         res = self._residual(sig)
-        floor = noise_floor(raw, noise, lambda r: self._residual(self._signals(r, sm)), res)
+        col_noise = {k: noise_std(v) for k, v in raw.items()}
+        floor = noise_floor(raw, col_noise, lambda r: self._residual(self._signals(r, sm)), res)
         tire = np.stack([self.stiffness[0] * sig["alpha_f"], self.stiffness[1] * sig["alpha_r"]],
                         axis=1)  # modelled (linear) axle forces, N
         floor = np.hypot(floor, NUMERICAL_FLOOR * np.sqrt(np.mean(tire**2, axis=0)))
         self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
-        self.segment = grid.segment
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
         self._lag_cache = {}
-        valid = sm.valid(len(t))
         return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
-                              smoother=sm, resampled=grid.resampled, column_noise=noise,
-                              segment=grid.segment, column_models=models,
-                              warnings=tuple(dict.fromkeys(warn)),
-                              effective_samples=effective_counts(res, valid, grid.segment),
-                              valid=valid)
+                              smoother=sm, resampled=resampled, column_noise=col_noise)
 
     def lagged_steering(self, axle: int, tau: float) -> np.ndarray:
         """Road-wheel angle (rad) of a first-order lag tau (s) behind the command.
@@ -583,12 +476,9 @@ class BicycleSystem:
         """
         key = (axle, round(float(tau), 12))
         if key not in self._lag_cache:
+            d = self._u_hold[:, axle]
             a = np.exp(-self.smoother.dt / max(tau, 1e-9))
-            parts = []  # per segment: the lag restarts after a time gap
-            for lo, hi in self.smoother.bounds or ((0, len(self.t)),):
-                d = self._u_hold[lo:hi, axle]
-                parts.append(lfilter([0.0, 1.0 - a], [1.0, -a], d - d[0]) + d[0])
-            self._lag_cache[key] = np.concatenate(parts)
+            self._lag_cache[key] = lfilter([0.0, 1.0 - a], [1.0, -a], d - d[0]) + d[0]
             if len(self._lag_cache) > 64:
                 self._lag_cache.pop(next(iter(self._lag_cache)))
         return self._lag_cache[key]
@@ -613,10 +503,8 @@ class BicycleSystem:
                                       if eff.name == "tire_saturation"})
 
     def fit_mask(self) -> np.ndarray:
-        """Rows (N, 2) whose filter window lies inside their segment (all, without gaps)."""
-        ok = self.smoother.valid(len(self.t)) if len(self.smoother.bounds or ()) > 1 else \
-            np.ones(len(self.t), dtype=bool)
-        return np.repeat(ok[:, None], 2, axis=1)
+        """All rows are used for fitting (N, 2)."""
+        return np.ones((len(self.t), 2), dtype=bool)
 
     @staticmethod
     def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
