@@ -38,7 +38,7 @@ def main() -> None:
                       "note": "shared 2-core machine; timings are noisy"}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "bench_mpc.json").write_text(json.dumps(res))
-    mpc_figure(res, args.out / "bench_mpc.png")
+    mpc_figure(res, args.out / "bench_mpc.png", overwrite=True)
     summary = {n: {k: v[k] for k in ("rmse_rad_s", "max_abs_rad_s", "compute_s")}
                for n, v in res["variants"].items()}
     print(json.dumps(summary, indent=1))

@@ -33,7 +33,7 @@ def main() -> None:
     res["wall_s"] = time.time() - t0
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "compensation.json").write_text(json.dumps(res, indent=1))
-    compensation_figure(res, args.out / "compensation.png")
+    compensation_figure(res, args.out / "compensation.png", overwrite=True)
     print(json.dumps(res, indent=1))
 
 

@@ -126,7 +126,8 @@ def merge(parts: list[Path], path: Path) -> dict:
                             "load_at_end": d["load_at_end"]} for p, d in zip(parts, datas,
                                                                            strict=True)]}
     write_json(path, res)
-    rl_curves_figure(runs, res["settings"]["steps_per_run"], path.with_suffix(".png"))
+    rl_curves_figure(runs, res["settings"]["steps_per_run"], path.with_suffix(".png"),
+                     overwrite=True)
     print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
     return res
 
@@ -211,7 +212,7 @@ def main(argv: list[str] | None = None) -> dict:
         write_json(path, result(complete=False))
     res = result(complete=True)
     write_json(path, res)
-    rl_curves_figure(runs, steps, args.out / f"{name}.png")
+    rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
     print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
     return res
 

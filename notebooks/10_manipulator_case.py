@@ -57,7 +57,7 @@ for i, (kind, m) in enumerate(metrics.items()):
 # ## Online estimation (thesis Fig. 4.2) and the frozen models (Fig. 4.3)
 
 # %%
-plot_online(result, OUT / "case1_online.png")
+plot_online(result, OUT / "case1_online.png", overwrite=True)
 
 # %%
-plot_consistency(result, OUT / "case1_consistency.png")
+plot_consistency(result, OUT / "case1_consistency.png", overwrite=True)

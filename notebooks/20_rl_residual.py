@@ -48,5 +48,5 @@ for run in runs:
           + ", ".join(f"{k}={last[k]:.3g}" for k in RL_INFO_KEYWORDS))
 
 # %%
-rl_curves_figure(runs, steps, OUT / "rl_curves.png")
+rl_curves_figure(runs, steps, OUT / "rl_curves.png", overwrite=True)
 display(Image(filename=str(OUT / "rl_curves.png")))

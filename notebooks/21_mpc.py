@@ -41,5 +41,5 @@ res = mpc_study(kinds=kinds, train_seconds=5.0 if QUICK else 60.0,
 for name, v in res["variants"].items():
     print(f"{name:22s} yaw-rate RMSE {v['rmse_rad_s']:.4f} rad/s, peak {v['max_abs_rad_s']:.4f}"
           f" rad/s, compute per step p50 {1e3 * v['compute_s']['p50']:.2f} ms")
-mpc_figure(res, OUT / "mpc.png")
+mpc_figure(res, OUT / "mpc.png", overwrite=True)
 display(Image(filename=str(OUT / "mpc.png")))

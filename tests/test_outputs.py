@@ -167,10 +167,18 @@ def test_output_files_rolls_back_and_never_replaces(tmp_path):
 
 
 # -- the API's writers: nothing of the user's is overwritten without overwrite=True -------
+_MPC_RES = {"variants": {"nominal": {
+    "trace": {"t": [0.0, 0.1], "r": [0.0, 0.1], "r_ref": [0.0, 0.2]},
+    "rmse_rad_s": 0.05, "compute_s": {"p50": 1e-3}}}}
+
+
 def _writers(tmp_path):
     """(name, suffix, write(path, **kw)) for every file writer of the package's API."""
     import numpy as np
+    from matplotlib.figure import Figure
 
+    from simgap._plotting import save_figure
+    from simgap.control.figures import mpc_figure
     from simgap.demo import write_index
     from simgap.diagnosis.augmented import AugmentedManipulator, save_model
     from simgap.identifiers import BatchIdentifier, make_identifier
@@ -187,6 +195,9 @@ def _writers(tmp_path):
         ("BatchIdentifier.save", ".npz", lambda p, **kw: batch.save(p, **kw)),
         ("save_model", ".json", lambda p, **kw: save_model(model, p, **kw)),
         ("write_index", ".html", lambda p, **kw: write_index(p.parent, [], **kw)),
+        # every figure function (control/, evaluation/) saves through save_figure
+        ("save_figure", ".png", lambda p, **kw: save_figure(Figure(), p, dpi=20, **kw)),
+        ("mpc_figure", ".png", lambda p, **kw: mpc_figure(_MPC_RES, p, **kw)),
     ]
 
 

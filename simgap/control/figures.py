@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from simgap._plotting import save_figure
+
 
 def _pyplot() -> Any:
     # No backend switch: headless, matplotlib picks Agg itself; in Jupyter the inline backend
@@ -16,7 +18,8 @@ def _pyplot() -> Any:
     return plt
 
 
-def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
+def rl_curves_figure(runs: list[dict], total: int, path: Path, *,
+                     overwrite: bool = False) -> None:
     """Learning curves of ``train_agent`` runs to a PNG (mean over seeds ± 95 % t-interval).
 
     Each seed is a thin line; the axis is symmetric-log (linear within ±10). Left: the
@@ -75,12 +78,17 @@ def rl_curves_figure(runs: list[dict], total: int, path: Path) -> None:
                  "−100·Σ(r − r_ref)² per 4 s episode (band: 95 % t-interval of the mean)",
                  fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=120, overwrite=overwrite)
+    finally:
+        plt.close(fig)
 
 
-def compensation_figure(res: dict, path: Path) -> None:
-    """Plot :func:`~simgap.control.experiments.compensation_study` as bars to a PNG."""
+def compensation_figure(res: dict, path: Path, *, overwrite: bool = False) -> None:
+    """Plot :func:`~simgap.control.experiments.compensation_study` as bars to a PNG.
+
+    An existing file at ``path`` is replaced only with ``overwrite=True``.
+    """
     plt = _pyplot()
 
     kinds = [k for k in ("instantaneous", "integral", "minibatch") if k in res["bicycle"]]
@@ -105,11 +113,16 @@ def compensation_figure(res: dict, path: Path) -> None:
         ax.set_title(title)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=120, overwrite=overwrite)
+    finally:
+        plt.close(fig)
 
-def mpc_figure(res: dict, path: Path) -> None:
-    """Plot traces, errors and compute times of ``mpc_study`` to a PNG."""
+def mpc_figure(res: dict, path: Path, *, overwrite: bool = False) -> None:
+    """Plot traces, errors and compute times of ``mpc_study`` to a PNG.
+
+    An existing file at ``path`` is replaced only with ``overwrite=True``.
+    """
     plt = _pyplot()
 
     variants = res["variants"]
@@ -138,5 +151,7 @@ def mpc_figure(res: dict, path: Path) -> None:
     for ax in axes[:2]:
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=120, overwrite=overwrite)
+    finally:
+        plt.close(fig)

@@ -22,7 +22,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from simgap._plotting import legend_outside
+from simgap._plotting import legend_outside, save_figure
 from simgap.evaluation.cases import METHOD_LABELS
 from simgap.evaluation.runner import CaseResult
 
@@ -55,12 +55,15 @@ def _thin_series(t: np.ndarray, y: np.ndarray, max_points: int = 20000
     return t[::step], y[::step]
 
 
-def plot_online(cr: CaseResult, path: Path | None = None) -> Figure:
+def plot_online(cr: CaseResult, path: Path | None = None, *,
+                     overwrite: bool = False) -> Figure:
     """Online estimation figure of one case (thesis Fig. 4.2 / 4.5 / 4.7).
 
     Args:
         cr: the case result.
-        path: if given, the PNG is written there.
+        path: if given, the PNG is written there (atomically).
+        overwrite: replace an existing file at ``path`` (otherwise refused with
+            :class:`~simgap.errors.OutputError`).
 
     Returns:
         The figure.
@@ -101,11 +104,12 @@ def plot_online(cr: CaseResult, path: Path | None = None) -> Figure:
     fig.suptitle(f"{cr.case.title} — online estimation"
                  f"{' (quick run)' if cr.quick else ''}", fontsize=11)
     if path is not None:
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100, overwrite=overwrite)
     return fig
 
 
-def plot_consistency(cr: CaseResult, path: Path | None = None) -> Figure:
+def plot_consistency(cr: CaseResult, path: Path | None = None, *,
+                     overwrite: bool = False) -> Figure:
     """Model-consistency figure of one case (thesis Fig. 4.3 / 4.6 / 4.8).
 
     Each panel shows, for t < T_f, the target residual and the frozen model's output
@@ -113,7 +117,9 @@ def plot_consistency(cr: CaseResult, path: Path | None = None) -> Figure:
 
     Args:
         cr: the case result.
-        path: if given, the PNG is written there.
+        path: if given, the PNG is written there (atomically).
+        overwrite: replace an existing file at ``path`` (otherwise refused with
+            :class:`~simgap.errors.OutputError`).
 
     Returns:
         The figure.
@@ -149,17 +155,20 @@ def plot_consistency(cr: CaseResult, path: Path | None = None) -> Figure:
     fig.suptitle(f"{cr.case.title}\nreproducibility test: frozen model on the history t < T_f"
                  f"{' (quick run)' if cr.quick else ''}", fontsize=11)
     if path is not None:
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100, overwrite=overwrite)
     return fig
 
 
-def plot_timing(timing: dict[str, Any], path: Path | None = None) -> Figure:
+def plot_timing(timing: dict[str, Any], path: Path | None = None, *,
+                     overwrite: bool = False) -> Figure:
     """Plot step-time histograms and run-wise maxima per method (thesis Sec. 4.5.2).
 
     Args:
         timing: the dict returned by :func:`simgap.evaluation.timing.run_timing` (with its
             ``"raw"`` entry).
-        path: if given, the PNG is written there.
+        path: if given, the PNG is written there (atomically).
+        overwrite: replace an existing file at ``path`` (otherwise refused with
+            :class:`~simgap.errors.OutputError`).
 
     Returns:
         The figure.
@@ -196,5 +205,5 @@ def plot_timing(timing: dict[str, Any], path: Path | None = None) -> Figure:
     fig.suptitle(f"Identifier step time, Case 1 ({s['n_runs']} runs × {s['n_steps']} steps per "
                  f"method; perf_counter_ns)")
     if path is not None:
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100, overwrite=overwrite)
     return fig
