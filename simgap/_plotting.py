@@ -12,7 +12,8 @@ def legend_outside(ax: Any, **kwargs: Any) -> None:
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
 
-def save_figure(fig: Any, path: str | Path, *, dpi: int, overwrite: bool = False) -> Path:
+def save_figure(fig: Any, path: str | Path, *, dpi: int, overwrite: bool = False,
+                close: bool = False) -> Path:
     """Save ``fig`` to ``path`` atomically through :func:`simgap.outputs.write_file`.
 
     Args:
@@ -20,6 +21,7 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int, overwrite: bool = False
         path: the image file (its format from the suffix, e.g. ``.png``).
         dpi: resolution (dots per inch).
         overwrite: replace an existing file; without it an existing file is refused.
+        close: close the figure afterwards (also when the write fails).
 
     Returns:
         The absolute path written.
@@ -30,4 +32,10 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int, overwrite: bool = False
     """
     from simgap.outputs import write_file
 
-    return write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi), overwrite=overwrite)
+    try:
+        return write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi), overwrite=overwrite)
+    finally:
+        if close:
+            import matplotlib.pyplot as plt
+
+            plt.close(fig)

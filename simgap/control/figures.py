@@ -78,10 +78,7 @@ def rl_curves_figure(runs: list[dict], total: int, path: Path, *,
                  "−100·Σ(r − r_ref)² per 4 s episode (band: 95 % t-interval of the mean)",
                  fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    try:
-        save_figure(fig, path, dpi=120, overwrite=overwrite)
-    finally:
-        plt.close(fig)
+    save_figure(fig, path, dpi=120, overwrite=overwrite, close=True)
 
 
 def compensation_figure(res: dict, path: Path, *, overwrite: bool = False) -> None:
@@ -113,10 +110,7 @@ def compensation_figure(res: dict, path: Path, *, overwrite: bool = False) -> No
         ax.set_title(title)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    try:
-        save_figure(fig, path, dpi=120, overwrite=overwrite)
-    finally:
-        plt.close(fig)
+    save_figure(fig, path, dpi=120, overwrite=overwrite, close=True)
 
 def mpc_figure(res: dict, path: Path, *, overwrite: bool = False) -> None:
     """Plot traces, errors and compute times of ``mpc_study`` to a PNG.
@@ -151,7 +145,4 @@ def mpc_figure(res: dict, path: Path, *, overwrite: bool = False) -> None:
     for ax in axes[:2]:
         ax.legend(fontsize=8)
     fig.tight_layout()
-    try:
-        save_figure(fig, path, dpi=120, overwrite=overwrite)
-    finally:
-        plt.close(fig)
+    save_figure(fig, path, dpi=120, overwrite=overwrite, close=True)
