@@ -241,7 +241,8 @@ def test_real_like_recordings_pass(arm):
 
 # -- envs ------------------------------------------------------------------------------
 @pytest.mark.parametrize("env_id", ["simgap/PacejkaLaneKeeping-v0", "simgap/BicycleTire-v0",
-                                    "simgap/ManipulatorFriction-v0"])
+                                    "simgap/ManipulatorFriction-v0",
+                                    "simgap/YawRateResidualRL-v0"])
 def test_env_actions_are_validated(env_id):
     import gymnasium as gym
 
@@ -256,10 +257,14 @@ def test_env_actions_are_validated(env_id):
     env.reset(seed=0)
     before = np.array(env.unwrapped.plant_state if hasattr(env.unwrapped, "plant_state")
                       else env.unwrapped.vehicle.state, dtype=float).copy()
-    for bad in (0.1, "left", np.zeros((1, *shape)), np.zeros(shape, dtype=int),
-                np.zeros(shape, dtype=complex), np.full(shape, np.nan), [[0.0] * shape[0]]):
-        with pytest.raises(EnvError):
+    for bad in (0.1, "left", None, np.zeros((1, *shape)), np.zeros((shape[0] + 1,)),
+                np.zeros(shape, dtype=int), np.zeros(shape, dtype=complex),
+                np.zeros(shape, dtype=bool), np.zeros(shape, dtype=object),
+                np.zeros((3, 1), dtype=object), np.full(shape, np.nan),
+                np.full(shape, np.inf), [[0.0] * shape[0]]):
+        with pytest.raises(EnvError) as err:
             env.step(bad)
+        assert "\n" not in str(err.value), str(err.value)  # one line, whatever the repr
     after = np.array(env.unwrapped.plant_state if hasattr(env.unwrapped, "plant_state")
                      else env.unwrapped.vehicle.state, dtype=float)
     np.testing.assert_array_equal(before, after)  # no bad action advanced the env
