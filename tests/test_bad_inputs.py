@@ -141,20 +141,43 @@ def test_bicycle_units(tmp_path):
         assert "time constant" in line
 
 
-@pytest.mark.parametrize("vx, effect", [(8.0, []), (12.0, ["tire_saturation:mu=0.9"]),
-                                        (15.0, ["tire_saturation:mu=0.6"]),
-                                        (15.0, ["steering_lag:front_axle:tau=0.05"])])
-def test_slow_speed_in_kmh_is_named_through_the_model(tmp_path, vx, effect):
-    """18–68 km/h logs are inside any speed range: the lateral dynamics name the unit."""
+_SLOW_LOGS = [(8.0, []), (12.0, ["tire_saturation:mu=0.9"]), (15.0, ["tire_saturation:mu=0.6"]),
+              (15.0, ["steering_lag:front_axle:tau=0.05"])]
+
+
+@pytest.mark.parametrize("vx, effect, cols",
+                         [(*log, c) for log in _SLOW_LOGS for c in (("vx",), ("vx", "vy"))]
+                         + [(8.0, [], ("vy",)), (12.0, [], ("vy",))])
+def test_slow_speed_in_kmh_is_named_through_the_model(tmp_path, vx, effect, cols):
+    """18–68 km/h logs are inside any speed range: the lateral dynamics name the unit.
+
+    Every speed column of the model is under test (vx and the m/s state vy), one or both.
+    vy alone in km/h is named only without strong missing physics: with μ = 0.6
+    saturation or a steering lag at 15 m/s the model explains such a log under no reading
+    (HYPOTHESIS_GAIN is not reached), a known limit.
+    """
     from simgap.diagnosis.commands import parse_effect
     from simgap.diagnosis.generate import generate
 
     d = generate("bicycle", [parse_effect(e) for e in effect], duration=8, seed=2,
                  vx=vx).to_frame()
     assert d.vx.max() * 3.6 < 70
-    line = diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6), "'vx'", "km/h", "3.6",
-                        model="bicycle")
+    which = ("column " if len(cols) == 1 else "columns ") + ", ".join(map(repr, cols))
+    line = diagnose_bad(tmp_path, d.assign(**{c: d[c] * 3.6 for c in cols}), which, "km/h",
+                        "3.6", model="bicycle")
     assert "unexplained" in line
+
+
+@pytest.mark.parametrize("vx", ["5", "10"])
+def test_recorded_car_with_vx_and_vy_in_kmh(tmp_path, vx):
+    """The CLI repro: ``simgap record --vx 10``, vx and vy × 3.6, ``simgap diagnose``."""
+    p = tmp_path / "car.csv"
+    res = runner.invoke(app, ["record", str(p), "--model", "bicycle", "--vx", vx,
+                              "--duration", "20", "--seed", "1", "--no-truth"])
+    assert res.exit_code == 0, res.output
+    d = pd.read_csv(p)
+    diagnose_bad(tmp_path, d.assign(vx=d.vx * 3.6, vy=d.vy * 3.6), "columns 'vx', 'vy'",
+                 "likely km/h", model="bicycle")
 
 
 @pytest.mark.parametrize("vx", [8.0, 12.0, 30.0])
