@@ -11,11 +11,12 @@ reason that can be stated:
 * **motion**: if every state column is constant there is nothing to diagnose;
 * **sample period vs the model's time scale**: the nominal model is linearised at
   :data:`RATE_POINTS` rows along the recording (:func:`model_rate`, median over the rows);
-  its fastest mode |λ|max (1/s)
-  must be resolved (Nyquist: dt |λ|max < π) and not be absurdly oversampled (dt |λ|max >
-  :data:`MIN_DT_RATE`). A period outside that which lands inside once divided by 10³, 10⁶ or
-  10⁹ is named as time in ms, µs or ns. A model with no intrinsic rate (pure inertia)
-  falls back to the declared :data:`DT_RANGE`;
+  its fastest mode |λ|max (1/s) must be resolved (Nyquist: dt |λ|max < π) and not be
+  absurdly oversampled (dt |λ|max > :data:`MIN_DT_RATE`). A period outside that which lands
+  inside once divided by 10³, 10⁶ or 10⁹ is named as time in ms, µs or ns if the recording
+  read so still spans :data:`MIN_SPAN` time constants (a period only slightly too long gets
+  no unit guess). A model with no intrinsic rate (pure inertia) falls back to the declared
+  :data:`DT_RANGE`;
 * **kinematic consistency** (mechanical systems with q and dq columns): the recorded
   velocity must be the time derivative of the recorded position; the least-squares ratio
   dq / (dq/dt) names degrees (57.3), ms time (10³) or a flipped sign (−1);
@@ -72,6 +73,9 @@ DT_RANGE = (1e-5, 0.5)
 #: Below this dt |λ|max a recording has over 10⁵ samples per fastest time constant: a
 #: time column in the wrong unit, not a real sample rate.
 MIN_DT_RATE = 1e-5
+#: A time unit (ms, µs) is suggested only if the recording read in it still spans this many
+#: time constants of the model's fastest mode.
+MIN_SPAN = 20.0
 #: Rows along the recording at which the nominal model is linearised (median rate).
 RATE_POINTS = 9
 #: Nyquist: a mode of rate |λ| (1/s) needs dt |λ| < π to be resolved at all.
@@ -204,7 +208,9 @@ def check_sample_period(name: str, t: np.ndarray, time: str = "t",
 
     With a rate the plausible periods are MIN_DT_RATE/rate .. π/rate (resolved at all, not
     absurdly oversampled); without one, :data:`DT_RANGE`. A period that lands inside once
-    divided by 10³, 10⁶ or 10⁹ is named as ms, µs or ns.
+    divided by 10³, 10⁶ or 10⁹ is named as ms, µs or ns, provided the recording read in
+    that unit still spans :data:`MIN_SPAN` time constants 1/rate; otherwise (e.g. a period
+    only slightly too long) no unit is guessed.
     """
     dt = float(np.median(np.diff(t)))
     if rate:
@@ -217,8 +223,12 @@ def check_sample_period(name: str, t: np.ndarray, time: str = "t",
     if lo <= dt <= hi:
         return
     hint = ""
+    span = float(t[-1] - t[0])
     for f, unit in ((1e3, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds")):
-        if lo <= dt / f <= hi:
+        # read in that unit the period must fit, and the recording still span MIN_SPAN
+        # time constants (a slightly too long period is not ms: ÷1000 would leave a
+        # recording far too short to show the model's dynamics)
+        if lo <= dt / f <= hi and (not rate or span / f * rate >= MIN_SPAN):
             hint = f"; is {time!r} in {unit}? (convert it to seconds)"
             break
     raise RecordingError(f"{name}: column {time!r}: median sample period {dt:.3g} s is "

@@ -141,6 +141,17 @@ def test_bicycle_units(tmp_path):
         assert "time constant" in line
 
 
+def test_slightly_too_long_period_gets_no_unit_guess(tmp_path):
+    """t × 40 (0.4 s on the 20 m/s bicycle, just beyond Nyquist) is no millisecond log: read
+    in ms the 20 s drive would last 0.8 s, a few time constants; the line names no unit."""
+    from simgap.diagnosis.generate import generate
+
+    d = generate("bicycle", [], duration=20, seed=0).to_frame()
+    line = diagnose_bad(tmp_path, d.assign(t=d.t * 40), "'t'", "sample period 0.4 s",
+                        "fastest mode", model="bicycle")
+    assert "seconds" not in line and " in m" not in line, line
+
+
 _SLOW_LOGS = [(8.0, []), (12.0, ["tire_saturation:mu=0.9"]), (15.0, ["tire_saturation:mu=0.6"]),
               (15.0, ["steering_lag:front_axle:tau=0.05"])]
 
