@@ -332,6 +332,37 @@ def test_identifier_file_corruption(tmp_path):
             load_identifier(p)
 
 
+def test_identifier_meta_fields_are_checked_one_by_one(tmp_path):
+    """Every corrupt meta field (a string for a flag, a float for a size, a size of 10¹²,
+    a non-finite dt) is one IdentifierError naming the file and the field; no silent
+    acceptance (``frozen = "zz"`` was read as True), no MemoryError."""
+    import json
+
+    from simgap.identifiers import load_identifier, make_identifier
+    from simgap.identifiers.batch import BatchIdentifier
+
+    for ident, load in ((make_identifier("minibatch", 4, 2, 0.002, seed=0), load_identifier),
+                        (BatchIdentifier("integral", 3, 4, 2, 0.002), BatchIdentifier.load)):
+        with np.load(ident.save(tmp_path / "id.npz", overwrite=True), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(str(arrays["meta"]))
+        load(tmp_path / "id.npz")  # the file as written loads
+        for key in sorted(set(meta) - {"format"}):
+            for bad in ("zz", None, [1], {}, -1, 1.5, True, 10**12, 2**70):
+                if key in ("n_steps", "n_updates", "seed") and bad in (10**12, 2**70):
+                    continue  # valid counts and seeds
+                if (key == "config" and bad == {}) or (key == "frozen" and bad is True):
+                    continue  # valid: every IdentifierConfig field has a default; a flag
+                p = tmp_path / "bad_meta.npz"
+                corrupt = json.dumps(dict(meta, **{key: bad}))
+                np.savez(p, **dict(arrays, meta=np.array(corrupt)))
+                with pytest.raises(IdentifierError) as err:
+                    load(p)
+                msg = str(err.value)
+                assert "bad_meta.npz" in msg and "\n" not in msg, msg
+                assert key in msg or (key == "config" and "IdentifierConfig" in msg), msg
+
+
 def test_bicycle_steering_sign_and_scale(tmp_path):
     from simgap.diagnosis.generate import generate
 
