@@ -103,4 +103,3 @@ def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
         log(f"wrote {path}")
     if res["failed"]:
         raise typer.Exit(1)
-
