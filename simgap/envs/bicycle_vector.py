@@ -128,6 +128,7 @@ class BicycleVectorEnv(NativeVectorEnv):
         self._s = np.zeros((nn, 6))
         self._k = np.zeros(nn, dtype=np.int64)
         self._zeros = np.zeros((nn, 2))
+        self._theta_nom = tuple(single._theta_nom.tolist())  # nominal vehicle + vx (fixed)
 
     def _new_outputs(self) -> tuple[np.ndarray, ...]:
         nn = self.num_envs
@@ -140,9 +141,9 @@ class BicycleVectorEnv(NativeVectorEnv):
         ref = env.reference
         out = self._new_outputs()
         steps = -1 if self.max_episode_steps is None else self.max_episode_steps
-        vector_step(self._s, self._k, actions, rows, self._low, self._high, env._theta,
-                    env._theta_nom, env._k_inv, env.dt, env.n_substeps, ref.amplitude,
-                    ref.period, env._vy_max, steps, *out)
+        vector_step(self._s, self._k, actions, rows, self._low, self._high,
+                    self._plant_params(), self._theta_nom, env._k_inv, env.dt, env.n_substeps,
+                    ref.amplitude, ref.period, env._vy_max, steps, *out)
         obs, rew, term, trunc, t, r_ref, g, delta, phys, u = out
         info = self._masks({"t": t, "r_ref": r_ref, "residual_true": g,
                             "axle_force_residual_true": delta, "physical_residual_true": phys,
