@@ -60,8 +60,6 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self._was_reset = False
-        self._theta_src: np.ndarray | None = None
-        self._theta_tuple: tuple[float, ...] = ()
 
     # ------------------------------------------------------------------ plant
     @property
@@ -83,17 +81,13 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         return (getattr(self.single_env, name),) * self.num_envs
 
     def _plant_params(self) -> tuple[float, ...]:
-        """The plant kernel array as a tuple of floats (rebuilt when the plant changes).
+        """The plant kernel array as a tuple of floats (the sub-env's, rebuilt with the plant).
 
         The kernels take the parameters as a tuple: numba then holds them as values rather
         than loading them from an array it cannot prove unchanged by the state writes, which
         made the arm's vector step 1.5x faster (same arithmetic, same bits).
         """
-        theta = self.single_env._theta
-        if theta is not self._theta_src:
-            self._theta_src = theta
-            self._theta_tuple = tuple(theta.tolist())
-        return self._theta_tuple
+        return self.single_env._theta_params
 
     # ------------------------------------------------------------------ seeding
     def _rng(self, i: int) -> np.random.Generator:
