@@ -10,6 +10,7 @@ import pytest
 
 import simgap
 from simgap.envs.bicycle_vector import BicycleVectorEnv
+from simgap.envs.manipulator import ManipulatorFrictionEnv
 from simgap.envs.scenarios import YawRateReference
 from simgap.errors import EnvError
 from simgap.models import bicycle as bic
@@ -113,8 +114,8 @@ def test_bicycle_native_reset_state_option_and_errors():
 def test_scalar_kernels_equal_the_array_kernels():
     """residual_entries = true_residual_vs; axle forces: one row = many rows = K⁻¹g."""
     rng = np.random.default_rng(5)
-    theta = bic.plant_array(bic.BicycleParams(), 20.0, tire=bic.MagicFormulaTire(),
-                            relaxation_length=(0.3, 0.5), steering_lag=0.04)
+    theta = bic.make_plant(bic.BicycleParams(), 20.0, tire=bic.MagicFormulaTire(),
+                           relaxation_length=(0.3, 0.5), steering_lag=0.04).array
     theta_nom = np.concatenate([bic.BicycleParams(m=1500.0).array, [20.0]])
     model = bic.BicycleNominal()
     gs = rng.normal(size=(300, 2)) * (3.0, 1.0)
@@ -141,3 +142,23 @@ def test_yaw_rate_reference_equals_python_floats():
                          np.random.default_rng(0).uniform(-1, 500, 20000)])
     for t in ts:
         assert ref(float(t)) == 0.3 * math.sin(2.0 * math.pi * float(t) / 4.7)
+
+
+def test_step_kernels_read_the_plant_assigned_after_construction():
+    """The parameter tuples the kernels take follow ``env.plant = ...`` (single and vector)."""
+    base = ManipulatorFrictionEnv()
+    plant = base.plant.with_effect("torque_bias", "joint1", tau0=0.3)
+    changed = ManipulatorFrictionEnv()
+    changed.plant = plant
+    fresh = ManipulatorFrictionEnv(plant=plant)
+    native = gym.make_vec(simgap.MANIPULATOR_ID, num_envs=2)
+    native.plant = plant
+    runs = []
+    for env in (base, changed, fresh):
+        env.reset(seed=0)
+        runs.append([env.step(np.array([1.0, -0.5]))[0] for _ in range(30)][-1])
+    assert np.array_equal(runs[1], runs[2]) and not np.array_equal(runs[0], runs[1])
+    native.reset(seed=0)
+    for _ in range(30):
+        obs = native.step(np.tile([1.0, -0.5], (2, 1)))[0]
+    assert np.array_equal(obs[0], runs[2])
