@@ -12,10 +12,9 @@ The sub-env's constructor checks the keyword arguments and provides the plant (r
 through :class:`~simgap.models.effects.Plant`), the nominal model and the spaces; the
 kernels are the models' own physics functions.
 
-Threads: the kernels run on one core. A vector step at N = 256 takes ≈ 0.7 ms (arm) or ≈ 0.2 ms
-(bicycle), so
-numba's thread start and join (tens of µs) would pay only on an idle machine; on the shared
-2-core machine they lost (issue 17), hence none.
+Threads: the kernels run on one core. A vector step at N = 256 takes ≈ 0.7 ms (arm) or
+≈ 0.2 ms (bicycle), so numba's thread start and join (tens of µs) would pay only on an idle
+machine; on the shared 2-core machine they lost (issue 17), hence none.
 """
 
 from __future__ import annotations
