@@ -64,6 +64,9 @@ class SystemSpec:
             this class (or a subclass) gets this system's ``residual_form``.
         vector_entry_point: ``"module:Class"`` of a native vector env (``gym.make_vec``'s
             default mode when set; ``vectorization_mode="sync"`` still gives the sync one).
+        residual_info_keys: ``info`` keys under which the identifier wrappers report the
+            physical-residual estimate besides ``physical_residual_estimate`` (a copy each),
+            e.g. the bicycle's ``("axle_force_residual_estimate",)``.
     """
 
     name: str
@@ -81,6 +84,7 @@ class SystemSpec:
     diagnose_file: str | None = None
     model_type: str | None = None
     vector_entry_point: str | None = None
+    residual_info_keys: tuple[str, ...] = ()
 
     @property
     def vocabulary(self) -> tuple[EffectSpec, ...]:
@@ -172,7 +176,12 @@ def system_of_model(model: Any) -> SystemSpec | None:
 
 
 def identifier_preset_of(model: Any) -> str:
-    """The thesis identifier preset of a nominal model's registered system.
+    """The thesis identifier preset of a nominal model's registered system (by its ``name``).
+
+    This is the *reproduction* preset (``identifiers.config.preset(name, kind)``, the thesis'
+    Tables 4.3/4.4), used where a system's thesis results are reproduced and by the
+    wrappers on request (``IdentifierWrapper(env, config="system")``); the wrappers'
+    default stays the scale-free ``preset("auto", kind, dt=model.dt)``.
 
     Raises:
         IdentifierError: the model's system is not registered or has no preset; the message
@@ -190,8 +199,20 @@ def identifier_preset_of(model: Any) -> str:
     return spec.identifier_preset
 
 
+def residual_info_keys_of(model: Any) -> tuple[str, ...]:
+    """The extra physical-residual ``info`` keys of a nominal model's registered system.
+
+    Looked up by the model's ``name`` (``()`` for an unregistered model): what the identifier
+    wrappers add besides ``physical_residual_estimate``.
+    """
+    name = getattr(model, "name", None)
+    spec = SYSTEMS.get(name) if isinstance(name, str) else None
+    return spec.residual_info_keys if spec is not None else ()
+
+
 def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
-             form: str, generator: str) -> SystemSpec:
+             form: str, generator: str, residual_info_keys: tuple[str, ...] = ()
+             ) -> SystemSpec:
     """A built-in system (env registration from :data:`simgap._envtable.BUILTIN_ENVS`)."""
     env_id, env, steps, vector = BUILTIN_ENVS[schema.system]
     return register_system(SystemSpec(
@@ -201,13 +222,15 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
         plant_schema=schema, recording=RecordingSchema(canonical=columns),
         identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
         generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
-        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector))
+        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector,
+        residual_info_keys=residual_info_keys))
 
 
 _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
          form="MechanicalSystem", generator="generate_manipulator")
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
-         form="BicycleSystem", generator="generate_bicycle")
+         form="BicycleSystem", generator="generate_bicycle",
+         residual_info_keys=("axle_force_residual_estimate",))
 
 #: A MuJoCo model file (MJCF ``.xml`` or compiled ``.mjb``): any mechanical model MuJoCo
 #: describes; no plant, generator or env of its own.

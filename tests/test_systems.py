@@ -88,3 +88,44 @@ def test_preset_table_alias_warns():
         warnings.simplefilter("error")
         with pytest.raises(AttributeError):
             iw.NO_SUCH_NAME  # noqa: B018
+
+
+def test_wrappers_take_preset_and_info_keys_from_the_registry():
+    """Default preset 'auto'; config='system' is the registry's reproduction preset; the
+    extra physical-residual info keys are the registered system's, not a name comparison."""
+    from simgap.envs.bicycle import BicycleTireEnv
+    from simgap.wrappers import VectorIdentifierWrapper
+
+    car = IdentifierWrapper(BicycleTireEnv(), "integral")
+    assert car.identifier.config == preset("auto", "integral", dt=0.01)
+    thesis = IdentifierWrapper(BicycleTireEnv(), "integral", config="system")
+    assert thesis.identifier.config == preset("bicycle", "integral")
+    assert IdentifierWrapper(BicycleTireEnv(), "minibatch", config="manipulator"
+                             ).identifier.config == preset("manipulator", "minibatch")
+    with pytest.raises(IdentifierError, match="'my_unregistered_pendulum'.*not registered"):
+        IdentifierWrapper(_UnregisteredEnv(), "integral", config="system")
+    with pytest.raises(IdentifierError, match="unknown preset system 'tank'"):
+        IdentifierWrapper(_UnregisteredEnv(), "integral", config="tank")
+    register_system(SystemSpec(name="my_unregistered_pendulum", identifier_preset="bicycle",
+                               residual_info_keys=("joint_torque_estimate",)))
+    try:
+        env = IdentifierWrapper(_UnregisteredEnv(), "integral", config="system")
+        assert env.identifier.config == preset("bicycle", "integral")
+        env.reset(seed=0)
+        info = env.step(np.zeros(1))[4]
+        np.testing.assert_array_equal(info["joint_torque_estimate"],
+                                      info["physical_residual_estimate"])
+        assert "axle_force_residual_estimate" not in info
+        vec = VectorIdentifierWrapper(gym.vector.SyncVectorEnv([_UnregisteredEnv] * 2))
+        vec.reset(seed=0)
+        vinfo = vec.step(np.zeros((2, 1)))[4]
+        np.testing.assert_array_equal(vinfo["joint_torque_estimate"],
+                                      vinfo["physical_residual_estimate"])
+        assert vinfo["_joint_torque_estimate"].all()
+    finally:
+        del SYSTEMS["my_unregistered_pendulum"]
+    # unregistered again: no extra keys
+    plain = IdentifierWrapper(_UnregisteredEnv())
+    plain.reset(seed=0)
+    assert "joint_torque_estimate" not in plain.step(np.zeros(1))[4]
+    assert get_system("bicycle").residual_info_keys == ("axle_force_residual_estimate",)
