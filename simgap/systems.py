@@ -6,7 +6,8 @@ tests look systems up here (or iterate :data:`SYSTEMS`), so a new system is one
 :func:`register_system` call, not a dozen edits, and an unknown name fails with one error
 that lists the registered systems.
 
-A user system registers through the same function::
+A user system registers through the same function (its env id, if it names one, is
+registered with Gymnasium by that call)::
 
     from simgap.systems import SystemSpec, register_system
 
@@ -113,18 +114,36 @@ SYSTEMS: dict[str, SystemSpec] = {}
 def register_system(spec: SystemSpec, *, replace: bool = False) -> SystemSpec:
     """Register a system so that every name lookup of simgap finds it.
 
+    A system with an ``env_id`` (and ``env_entry_point``) has its Gymnasium env registered
+    at once, so ``gym.make(spec.env_id)`` works right after this call (with
+    ``max_episode_steps`` and ``vector_entry_point``). Registering the same env again is a
+    no-op; an id that Gymnasium already holds with another entry point is refused unless
+    ``replace`` is set.
+
     Args:
         spec: the system.
-        replace: allow replacing a registered system of the same name.
+        replace: allow replacing a registered system of the same name (and its env id).
 
     Raises:
-        ModelError: the name is taken (and ``replace`` is false), or ``spec`` is not a
-            :class:`SystemSpec`.
+        ModelError: the name is taken (and ``replace`` is false), ``spec`` is not a
+            :class:`SystemSpec`, only one of ``env_id`` / ``env_entry_point`` is given, or
+            the env id is taken by another env (and ``replace`` is false).
     """
     if not isinstance(spec, SystemSpec):
         raise ModelError(f"register_system needs a SystemSpec, got {spec!r}")
     if spec.name in SYSTEMS and not replace:
         raise ModelError(f"system {spec.name!r} is already registered; pass replace=True")
+    if bool(spec.env_id) != bool(spec.env_entry_point):
+        raise ModelError(f"system {spec.name!r}: env_id and env_entry_point go together, got "
+                         f"env_id={spec.env_id!r}, env_entry_point={spec.env_entry_point!r}")
+    if spec.env_id:
+        from simgap.envs.registration import register_env
+
+        try:
+            register_env(spec.env_id, spec.env_entry_point, spec.max_episode_steps,
+                         spec.vector_entry_point, replace=replace)
+        except ValueError as err:
+            raise ModelError(f"system {spec.name!r}: {err}") from None
     SYSTEMS[spec.name] = spec
     return spec
 
