@@ -6,7 +6,8 @@ tests look systems up here (or iterate :data:`SYSTEMS`), so a new system is one
 :func:`register_system` call, not a dozen edits, and an unknown name fails with one error
 that lists the registered systems.
 
-A user system registers through the same function::
+A user system registers through the same function (its env id, if it names one, is
+registered with Gymnasium by that call)::
 
     from simgap.systems import SystemSpec, register_system
 
@@ -64,6 +65,9 @@ class SystemSpec:
             this class (or a subclass) gets this system's ``residual_form``.
         vector_entry_point: ``"module:Class"`` of a native vector env (``gym.make_vec``'s
             default mode when set; ``vectorization_mode="sync"`` still gives the sync one).
+        residual_info_keys: ``info`` keys under which the identifier wrappers report the
+            physical-residual estimate besides ``physical_residual_estimate`` (a copy each),
+            e.g. the bicycle's ``("axle_force_residual_estimate",)``.
     """
 
     name: str
@@ -81,6 +85,7 @@ class SystemSpec:
     diagnose_file: str | None = None
     model_type: str | None = None
     vector_entry_point: str | None = None
+    residual_info_keys: tuple[str, ...] = ()
 
     @property
     def vocabulary(self) -> tuple[EffectSpec, ...]:
@@ -109,18 +114,36 @@ SYSTEMS: dict[str, SystemSpec] = {}
 def register_system(spec: SystemSpec, *, replace: bool = False) -> SystemSpec:
     """Register a system so that every name lookup of simgap finds it.
 
+    A system with an ``env_id`` (and ``env_entry_point``) has its Gymnasium env registered
+    at once, so ``gym.make(spec.env_id)`` works right after this call (with
+    ``max_episode_steps`` and ``vector_entry_point``). Registering the same env again is a
+    no-op; an id that Gymnasium already holds with another entry point is refused unless
+    ``replace`` is set.
+
     Args:
         spec: the system.
-        replace: allow replacing a registered system of the same name.
+        replace: allow replacing a registered system of the same name (and its env id).
 
     Raises:
-        ModelError: the name is taken (and ``replace`` is false), or ``spec`` is not a
-            :class:`SystemSpec`.
+        ModelError: the name is taken (and ``replace`` is false), ``spec`` is not a
+            :class:`SystemSpec`, only one of ``env_id`` / ``env_entry_point`` is given, or
+            the env id is taken by another env (and ``replace`` is false).
     """
     if not isinstance(spec, SystemSpec):
         raise ModelError(f"register_system needs a SystemSpec, got {spec!r}")
     if spec.name in SYSTEMS and not replace:
         raise ModelError(f"system {spec.name!r} is already registered; pass replace=True")
+    if bool(spec.env_id) != bool(spec.env_entry_point):
+        raise ModelError(f"system {spec.name!r}: env_id and env_entry_point go together, got "
+                         f"env_id={spec.env_id!r}, env_entry_point={spec.env_entry_point!r}")
+    if spec.env_id:
+        from simgap.envs.registration import register_env
+
+        try:
+            register_env(spec.env_id, spec.env_entry_point, spec.max_episode_steps,
+                         spec.vector_entry_point, replace=replace)
+        except ValueError as err:
+            raise ModelError(f"system {spec.name!r}: {err}") from None
     SYSTEMS[spec.name] = spec
     return spec
 
@@ -172,7 +195,12 @@ def system_of_model(model: Any) -> SystemSpec | None:
 
 
 def identifier_preset_of(model: Any) -> str:
-    """The thesis identifier preset of a nominal model's registered system.
+    """The thesis identifier preset of a nominal model's registered system (by its ``name``).
+
+    This is the *reproduction* preset (``identifiers.config.preset(name, kind)``, the thesis'
+    Tables 4.3/4.4), used where a system's thesis results are reproduced and by the
+    wrappers on request (``IdentifierWrapper(env, config="system")``); the wrappers'
+    default stays the scale-free ``preset("auto", kind, dt=model.dt)``.
 
     Raises:
         IdentifierError: the model's system is not registered or has no preset; the message
@@ -190,8 +218,20 @@ def identifier_preset_of(model: Any) -> str:
     return spec.identifier_preset
 
 
+def residual_info_keys_of(model: Any) -> tuple[str, ...]:
+    """The extra physical-residual ``info`` keys of a nominal model's registered system.
+
+    Looked up by the model's ``name`` (``()`` for an unregistered model): what the identifier
+    wrappers add besides ``physical_residual_estimate``.
+    """
+    name = getattr(model, "name", None)
+    spec = SYSTEMS.get(name) if isinstance(name, str) else None
+    return spec.residual_info_keys if spec is not None else ()
+
+
 def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *, preset: str,
-             form: str, generator: str) -> SystemSpec:
+             form: str, generator: str, residual_info_keys: tuple[str, ...] = ()
+             ) -> SystemSpec:
     """A built-in system (env registration from :data:`simgap._envtable.BUILTIN_ENVS`)."""
     env_id, env, steps, vector = BUILTIN_ENVS[schema.system]
     return register_system(SystemSpec(
@@ -201,13 +241,15 @@ def _builtin(schema: PlantSchema, nominal_cls: type, columns: tuple[str, ...], *
         plant_schema=schema, recording=RecordingSchema(canonical=columns),
         identifier_preset=preset, residual_form=f"simgap.diagnosis.systems:{form}",
         generator=f"simgap.diagnosis.generate:{generator}", env_id=env_id,
-        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector))
+        env_entry_point=env, max_episode_steps=steps, vector_entry_point=vector,
+        residual_info_keys=residual_info_keys))
 
 
 _builtin(man.PLANT_SCHEMA, man.ManipulatorNominal, man.RECORDING_COLUMNS, preset="manipulator",
          form="MechanicalSystem", generator="generate_manipulator")
 _builtin(bic.PLANT_SCHEMA, bic.BicycleNominal, bic.RECORDING_COLUMNS, preset="bicycle",
-         form="BicycleSystem", generator="generate_bicycle")
+         form="BicycleSystem", generator="generate_bicycle",
+         residual_info_keys=("axle_force_residual_estimate",))
 
 #: A MuJoCo model file (MJCF ``.xml`` or compiled ``.mjb``): any mechanical model MuJoCo
 #: describes; no plant, generator or env of its own.

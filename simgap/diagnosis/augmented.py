@@ -223,16 +223,12 @@ class AugmentedBicycle(BicycleNominal):
         return np.array([dvy + self.phys["lateral_bias"], dr + self.phys["yaw_bias"]])
 
     def env_kwargs(self) -> dict[str, Any]:
-        """Arguments of ``BicycleTireEnv`` whose plant is this model.
+        """Arguments of ``BicycleTireEnv`` whose plant is this model: ``{"plant": ...}``.
 
-        The env has one mu for both axles: the mean of the axles' where they differ.
+        The env's plant is this model's :class:`~simgap.models.effects.Plant` at the
+        model's speed, so each axle keeps its own fitted μ (``env.unwrapped.mu_axles``).
         """
-        sat = any(m is not None for m in self.phys["mu"])
-        return {"vx": self.vx, "mu": self.params.mu,
-                "tire": "magic_formula" if sat else "linear",
-                "steering_lag": self.phys["steering_lag"],
-                "lateral_bias": self.phys["lateral_bias"], "yaw_bias": self.phys["yaw_bias"],
-                "true_params": self.params}
+        return {"plant": self.plant.with_options(vx=self.vx)}
 
     def plant_theta(self, vx: float | None = None) -> np.ndarray:
         """Plant array (:func:`simgap.models.bicycle.plant_array`) incl. the steering lag."""

@@ -227,8 +227,28 @@ class BicycleTireEnv(PlantEnv):
 
     @property
     def mu(self) -> float:
-        """Road friction μ of the truth (-), read-only view of :attr:`plant`."""
+        """Road friction μ of the truth (-), read-only view of :attr:`plant`.
+
+        The μ both axles share (``true_params.mu``; with linear tires the parameter no tire
+        reads). Where the axles differ (``tire_saturation`` per axle, or on one axle only)
+        there is no one μ: read :attr:`mu_axles`.
+
+        Raises:
+            EnvError: the axles' road friction differs.
+        """
+        front, rear = self.mu_axles
+        if front != rear:
+            raise EnvError(f"the truth's road friction differs per axle (front {front}, rear "
+                           f"{rear}; None = linear tire): read env.unwrapped.mu_axles")
         return self._plant.true_params.mu
+
+    @property
+    def mu_axles(self) -> tuple[float | None, float | None]:
+        """(front, rear) road friction μ (-) of the truth's tires; ``None``: linear tire there.
+
+        Read-only view of :attr:`plant` (the kernel's ``mu_f`` / ``mu_r``).
+        """
+        return self._plant.folded.extras["axle_mu"]
 
     @property
     def tire(self) -> MagicFormulaTire | None:

@@ -48,8 +48,11 @@ INPUT_UNITS = ("rad", "rad")
 RECORDING_COLUMNS = ("t", "vx", "vy", "r", "delta_f", "delta_r")
 MIN_VX = 1.0  # m/s: below it the slip-angle model is singular
 
-#: Layout of the plant array: the vehicle parameters, then the plant's options.
-PLANT_FIELDS = PARAM_FIELDS + ("vx", "tire_model", "mf_C", "mf_E", "relax_f", "relax_r",
+#: Layout of the plant array: the vehicle parameters, then the plant's options. The tires
+#: read the per-axle road friction ``mu_f`` / ``mu_r`` (0 = that axle's tire is linear, no
+#: saturation); the parameter block's ``mu`` is :attr:`Plant.true_params` ``.mu`` (the axles'
+#: common μ, their mean where they differ) and no kernel reads it.
+PLANT_FIELDS = PARAM_FIELDS + ("vx", "mf_C", "mf_E", "mu_f", "mu_r", "relax_f", "relax_r",
                                "steer_lag", "ay0", "dr0")
 #: Slots of :attr:`BicycleParams.array`, of the nominal kernel array (params + vx) and of
 #: the plant array; the nominal array opens the plant array, so both share the slots below.
@@ -59,7 +62,8 @@ PLANT = Slots(*PLANT_FIELDS)
 assert PARAMS.prefix_of(NOMINAL) and NOMINAL.prefix_of(PLANT)
 # Module-level ints generated from the names (numba freezes them as constants).
 M, IZ, LF, LR, C_AF, C_AR, G, MU = (PLANT[n] for n in PARAM_FIELDS)
-VX, TIRE_MODEL, MF_C, MF_E = PLANT["vx"], PLANT["tire_model"], PLANT["mf_C"], PLANT["mf_E"]
+VX, MF_C, MF_E = PLANT["vx"], PLANT["mf_C"], PLANT["mf_E"]
+MU_F, MU_R = PLANT["mu_f"], PLANT["mu_r"]
 RELAX_F, RELAX_R, STEER_LAG = PLANT["relax_f"], PLANT["relax_r"], PLANT["steer_lag"]
 AY0, DR0 = PLANT["ay0"], PLANT["dr0"]
 
@@ -167,17 +171,19 @@ def nominal_derivatives(x, u, theta):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _forces(s0, s1, s2, s3, s4, s5, u1, u2, theta):  # pragma: no cover - compiled
-    vx, tire, c_mf, e_mf = theta[VX], theta[TIRE_MODEL], theta[MF_C], theta[MF_E]
+    vx, mu_f, mu_r, c_mf, e_mf = theta[VX], theta[MU_F], theta[MU_R], theta[MF_C], theta[MF_E]
     relax_f, relax_r, lag = theta[RELAX_F], theta[RELAX_R], theta[STEER_LAG]
     d_f = s4 if lag > 0.0 else u1
     d_r = s5 if lag > 0.0 else u2
     af_ss, ar_ss = slip_angles(s0, s1, d_f, d_r, vx, theta[LF], theta[LR])
     af = s2 if relax_f > 0.0 else af_ss
     ar = s3 if relax_r > 0.0 else ar_ss
-    if tire > 0.5:
+    if mu_f > 0.0 or mu_r > 0.0:  # a saturating (Magic Formula) tire on some axle
         fzf, fzr = axle_loads(theta)
-        fyf = magic_formula(af, theta[C_AF], fzf, theta[MU], c_mf, e_mf)
-        fyr = magic_formula(ar, theta[C_AR], fzr, theta[MU], c_mf, e_mf)
+        fyf = magic_formula(af, theta[C_AF], fzf, mu_f, c_mf, e_mf) if mu_f > 0.0 \
+            else linear_force(af, theta[C_AF])
+        fyr = magic_formula(ar, theta[C_AR], fzr, mu_r, c_mf, e_mf) if mu_r > 0.0 \
+            else linear_force(ar, theta[C_AR])
     else:
         fyf = linear_force(af, theta[C_AF])
         fyr = linear_force(ar, theta[C_AR])
@@ -305,6 +311,7 @@ def axle_force_rows(g, k_inv):  # pragma: no cover - compiled
 
 
 def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | None = None,
+                mu: tuple[float | None, float | None] | None = None,
                 relaxation_length: float | tuple[float, float] = 0.0, steering_lag: float = 0.0,
                 lateral_bias: float = 0.0, yaw_bias: float = 0.0) -> np.ndarray:
     """Flat array for :func:`plant_derivative`, fields :data:`PLANT_FIELDS`.
@@ -312,7 +319,10 @@ def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | No
     Args:
         params: true vehicle parameters.
         vx: longitudinal speed (m/s).
-        tire: Magic Formula shape, or ``None`` for linear tires.
+        tire: Magic Formula shape, or ``None`` for linear tires on both axles.
+        mu: road friction (-) of the Magic Formula tire per axle, (front, rear); ``None``
+            for an axle keeps its tire linear. Default (with ``tire``): ``params.mu`` on both
+            axles. Needs ``tire``.
         relaxation_length: tire relaxation length σ (m), one value or (front, rear); 0 = off.
         steering_lag: first-order lag of the road-wheel angle behind the command (s); 0 = off.
         lateral_bias: constant lateral acceleration on the body (m/s²), e.g. road bank.
@@ -323,9 +333,15 @@ def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | No
     for v in relax:
         validate_positive("relaxation_length", v, allow_zero=True)
     validate_positive("steering_lag", steering_lag, allow_zero=True)
+    if tire is None and mu is not None:
+        raise ValueError(f"per-axle mu {mu!r} needs a Magic Formula tire (tire=...)")
+    axle_mu = (params.mu, params.mu) if mu is None else tuple(mu)
+    if len(axle_mu) != 2:
+        raise ValueError(f"mu needs (front, rear) values, got {mu!r}")
+    mus = [0.0 if tire is None or m is None else validate_positive("mu", m) for m in axle_mu]
     mf = tire if tire is not None else MagicFormulaTire()
-    extra = [check_vx(vx), 1.0 if tire is not None else 0.0, mf.C, mf.E, relax[0], relax[1],
-             steering_lag, lateral_bias, yaw_bias]
+    extra = [check_vx(vx), mf.C, mf.E, mus[0], mus[1], relax[0], relax[1], steering_lag,
+             lateral_bias, yaw_bias]
     if not np.all(np.isfinite(extra)):
         raise ValueError(f"plant options must be finite, got {extra!r}")
     return np.concatenate([params.array, np.array(extra, dtype=np.float64)])
@@ -586,7 +602,10 @@ VOCABULARY = (
 def _fold(plant: Plant) -> Folded:
     """Plant → effective vehicle parameters, tire, options → kernel array :data:`PLANT`.
 
-    The kernel has one road μ: where the axles' μ differ, their mean acts.
+    Each axle's tire reads its own road μ (``mu_f``, ``mu_r``): ``tire_saturation`` on one
+    axle saturates that axle only, the other keeps its linear tire; without a channel it acts
+    on both. The parameters' ``mu`` is the axles' common μ (their mean where they differ, a
+    summary no tire reads).
     """
     p = plant.params
     acc: dict[str, Any] = {"kw": {f: getattr(p, f) for f in PARAM_FIELDS}, "mu": [None, None],
@@ -601,7 +620,8 @@ def _fold(plant: Plant) -> Folded:
         else BicycleParams(**acc["kw"])
     opts = plant.options
     tire = MagicFormulaTire(C=opts["mf_C"], E=opts["mf_E"]) if mus else None
-    theta = plant_array(params, opts["vx"], tire=tire, relaxation_length=tuple(acc["relax"]),
+    theta = plant_array(params, opts["vx"], tire=tire, mu=tuple(acc["mu"]) if mus else None,
+                        relaxation_length=tuple(acc["relax"]),
                         steering_lag=acc["steering_lag"], lateral_bias=acc["lateral_bias"],
                         yaw_bias=acc["yaw_bias"])
     return Folded(params, theta, {"tire": tire, "axle_mu": tuple(acc["mu"]),

@@ -19,7 +19,9 @@ Keys added to ``info`` on every ``step`` (arrays are fresh copies):
 * ``identifier_frozen``: bool;
 * ``physical_residual_estimate``: ``model.physical_residual(x_k, ĝ_k)`` when the model has
   it (manipulator: joint torques tau_d, N·m; bicycle: axle forces K⁻¹ĝ, N);
-* ``axle_force_residual_estimate``: the same array, bicycle (``model.name == "bicycle"``) only.
+* further keys with the same array (a copy each) where the model's registered system names
+  them (:attr:`simgap.systems.SystemSpec.residual_info_keys`, looked up by ``model.name``):
+  ``axle_force_residual_estimate`` for the bicycle.
 
 ``reset`` adds ``state_estimate`` (= x_0) and ``identifier_frozen``.
 
@@ -101,9 +103,50 @@ def nominal_model_of(env: gym.Env | Any, model: NominalModel | None = None) -> N
     return model
 
 
+def resolve_config(model: NominalModel, kind: str,
+                   config: IdentifierConfig | str | None) -> IdentifierConfig:
+    """The identifier configuration the wrappers use for ``model``.
+
+    Args:
+        model: the nominal model (its ``dt`` and, for ``"system"``, its ``name``).
+        kind: the identifier kind.
+        config: an :class:`IdentifierConfig` (used as given); ``None`` or ``"auto"``: the
+            scale-free ``preset("auto", kind, dt=model.dt)`` (the default, for any env);
+            ``"system"``: the thesis reproduction preset registered for the model's system
+            (:func:`simgap.systems.identifier_preset_of`; ``IdentifierError`` if the system
+            is unregistered or has none); another string: that preset by name
+            (``"manipulator"``, ``"bicycle"``).
+
+    Raises:
+        IdentifierError: an unknown preset name, or ``"system"`` without a registered preset.
+    """
+    if isinstance(config, IdentifierConfig):
+        return config
+    if config is None:
+        config = "auto"
+    if not isinstance(config, str):
+        raise IdentifierError(f"config must be an IdentifierConfig, a preset name or None, "
+                              f"got {config!r}")
+    if config == "system":
+        from simgap.systems import identifier_preset_of
+
+        config = identifier_preset_of(model)
+    return preset(config, kind, dt=model.dt)
+
+
+def residual_info_keys(model: NominalModel) -> tuple[str, ...]:
+    """Extra info keys of the physical-residual estimate, from the system registry."""
+    from simgap.systems import residual_info_keys_of
+
+    return residual_info_keys_of(model)
+
+
 def build_identifier(model: NominalModel, identifier: str | Identifier,
-                     config: IdentifierConfig | None, seed: int) -> Identifier:
-    """Make (or check) the identifier that fits ``model``'s sizes and dt."""
+                     config: IdentifierConfig | str | None, seed: int) -> Identifier:
+    """Make (or check) the identifier that fits ``model``'s sizes and dt.
+
+    ``config`` as in :func:`resolve_config`.
+    """
     n, m = len(model.state_names), len(model.input_names)
     if isinstance(identifier, Identifier):
         if (identifier.n_states, identifier.n_inputs) != (n, m):
@@ -118,9 +161,8 @@ def build_identifier(model: NominalModel, identifier: str | Identifier,
         raise IdentifierError(f"identifier must be a kind name or an Identifier, got "
                               f"{identifier!r}")
     kind = check_kind(identifier)
-    if config is None:
-        config = preset("auto", kind, dt=model.dt)
-    return make_identifier(kind, n, m, model.dt, config=config, seed=seed)
+    return make_identifier(kind, n, m, model.dt, config=resolve_config(model, kind, config),
+                           seed=seed)
 
 
 def periodic_indices(model: NominalModel) -> np.ndarray:
@@ -171,9 +213,12 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``"minibatch"``, or a ready :class:`~simgap.identifiers.Identifier` (its sizes and
             dt must match the model).
         frozen: start frozen (weights held; x̂ runs).
-        config: identifier config; ``None`` = ``preset("auto", kind, dt=model.dt)``, the
-            scale-free preset for any env. The thesis presets reproduce the thesis:
-            ``config=preset("manipulator", kind)`` (Table 4.3), ``preset("bicycle", kind)``.
+        config: identifier config; ``None`` (or ``"auto"``) = ``preset("auto", kind,
+            dt=model.dt)``, the scale-free preset for any env. The thesis presets reproduce
+            the thesis: ``config="system"`` takes the one registered for the model's system
+            (:attr:`simgap.systems.SystemSpec.identifier_preset`), or name it:
+            ``config="manipulator"`` / ``preset("manipulator", kind)`` (Table 4.3),
+            ``"bicycle"`` (Table 4.4). See :func:`resolve_config`.
         seed: seed of the identifier's initial weights.
         reset_identifier_on_seed: see the module docstring.
         model: the nominal model f(x, u) of ``env`` (the ``NominalModel`` protocol); ``None``
@@ -181,7 +226,8 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """
 
     def __init__(self, env: gym.Env, identifier: str | Identifier = "integral", *,
-                 frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
+                 frozen: bool = False, config: IdentifierConfig | str | None = None,
+                 seed: int = 0,
                  reset_identifier_on_seed: bool = True,
                  model: NominalModel | None = None) -> None:
         gym.utils.RecordConstructorArgs.__init__(
@@ -194,7 +240,7 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             self.identifier.freeze()
         self.reset_identifier_on_seed = bool(reset_identifier_on_seed)
         self._reset_point = self.identifier.state_dict()
-        self._is_bicycle = getattr(self.nominal_model, "name", "") == "bicycle"
+        self._extra_keys = residual_info_keys(self.nominal_model)
         self._physical = getattr(self.nominal_model, "physical_residual", None)
         self._to_input = getattr(self.nominal_model, "input", None)
         space = env.action_space
@@ -279,7 +325,7 @@ class IdentifierWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         if self._physical is not None:
             phys = np.asarray(self._physical(x, g), dtype=np.float64)
             info["physical_residual_estimate"] = phys
-            if self._is_bicycle:
-                info["axle_force_residual_estimate"] = phys.copy()
+            for key in self._extra_keys:
+                info[key] = phys.copy()
         self._x = x_new
         return obs, reward, terminated, truncated, info

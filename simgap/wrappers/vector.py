@@ -17,8 +17,9 @@ Autoreset (gymnasium 1.x, ``envs.metadata["autoreset_mode"]``):
 
 Info keys (gymnasium vector convention: an (N, …) array plus a boolean ``_key`` mask):
 ``residual_estimate``, ``state_estimate``, ``estimation_error``, ``physical_residual_estimate``
-(when the model has ``physical_residual``; ``axle_force_residual_estimate`` for the bicycle),
-and ``identifier_frozen`` (bool). Reset semantics as for
+(when the model has ``physical_residual``; plus the keys its registered system names in
+:attr:`~simgap.systems.SystemSpec.residual_info_keys`, ``axle_force_residual_estimate`` for
+the bicycle), and ``identifier_frozen`` (bool). Reset semantics as for
 :class:`~simgap.wrappers.IdentifierWrapper`: a seeded reset restores the reset point.
 
 When every row shares one nominal model object (the native vector envs: ``gym.make_vec``'s
@@ -40,9 +41,14 @@ from gymnasium.vector import AutoresetMode
 
 from simgap.envs._common import check_reset
 from simgap.identifiers import BatchIdentifier, IdentifierConfig, IdentifierError
-from simgap.identifiers.config import check_kind, preset
+from simgap.identifiers.config import check_kind
 from simgap.models.base import NominalModel, wrap_angle
-from simgap.wrappers.identifier_wrapper import action_to_input, periodic_indices
+from simgap.wrappers.identifier_wrapper import (
+    action_to_input,
+    periodic_indices,
+    residual_info_keys,
+    resolve_config,
+)
 
 
 class VectorIdentifierWrapper(gym.vector.VectorWrapper):
@@ -52,7 +58,9 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         env: the vector env.
         identifier: ``"integral"`` (default), ``"instantaneous"`` or ``"minibatch"``.
         frozen: start frozen.
-        config: identifier config (default: ``preset("auto", kind, dt=model.dt)``).
+        config: identifier config, or a preset name: default (``None``/``"auto"``)
+            ``preset("auto", kind, dt=model.dt)``; ``"system"`` the thesis preset registered
+            for the model's system (see :func:`~simgap.wrappers.identifier_wrapper.resolve_config`).
         seed: seed of the (shared) initial weights.
         reset_identifier_on_seed: a seeded reset restores the reset point (default True).
         threads: passed to :class:`~simgap.identifiers.BatchIdentifier`. Default ``False``
@@ -62,8 +70,9 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
     """
 
     def __init__(self, env: gym.vector.VectorEnv, identifier: str = "integral", *,
-                 frozen: bool = False, config: IdentifierConfig | None = None, seed: int = 0,
-                 reset_identifier_on_seed: bool = True, threads: bool | None = False) -> None:
+                 frozen: bool = False, config: IdentifierConfig | str | None = None,
+                 seed: int = 0, reset_identifier_on_seed: bool = True,
+                 threads: bool | None = False) -> None:
         super().__init__(env)
         models = tuple(env.get_attr("nominal_model"))
         for mdl in models:
@@ -77,8 +86,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
                 raise IdentifierError("all sub-envs need nominal models of equal sizes and dt")
         self.nominal_models = models
         kind = check_kind(identifier)
-        if config is None:
-            config = preset("auto", kind, dt=m0.dt)
+        config = resolve_config(m0, kind, config)
         self.identifier = BatchIdentifier(kind, env.num_envs, n, m, m0.dt, config=config,
                                           seed=seed, threads=threads)
         if frozen:
@@ -89,7 +97,7 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         if isinstance(self.autoreset_mode, str):
             self.autoreset_mode = AutoresetMode(self.autoreset_mode)
         self._physical = [getattr(mdl, "physical_residual", None) for mdl in models]
-        self._is_bicycle = getattr(m0, "name", "") == "bicycle"
+        self._extra_keys = residual_info_keys(m0)
         self._n, self._m = n, m
         self._batched = all(mdl is m0 for mdl in models) and all(
             callable(getattr(m0, name, None)) for name in ("states", "inputs", "f_rows"))
@@ -200,9 +208,9 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         if self._physical[0] is not None:
             infos["physical_residual_estimate"] = phys
             infos["_physical_residual_estimate"] = valid.copy()
-            if self._is_bicycle:
-                infos["axle_force_residual_estimate"] = phys.copy()
-                infos["_axle_force_residual_estimate"] = valid.copy()
+            for key in self._extra_keys:
+                infos[key] = phys.copy()
+                infos[f"_{key}"] = valid.copy()
         if restart.any():
             ident.reset_observer(restart, obs_now)
         self._x = obs_now

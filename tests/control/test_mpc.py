@@ -100,3 +100,75 @@ def test_mpc_replan_period_applies_the_plan_open_loop():
         assert mpc(x + k, k * 0.01)[0] == plan[int(k * 0.01 / cfg.dt_pred + 1e-9)]
     mpc(x, 0.1)  # re-plan
     assert not np.array_equal(mpc._plan, plan)
+
+
+def _trained_network():
+    """A frozen ĝ with weights learned on the saturating tire (not the initial ones)."""
+    from simgap.wrappers import IdentifierWrapper
+
+    env = IdentifierWrapper(BicycleTireEnv(mu=0.5), "minibatch",
+                            config=preset("bicycle", "minibatch"), seed=2)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(400):
+        env.step(np.array([rng.uniform(-0.08, 0.08), 0.0]))
+    return ResidualNetwork(env.identifier), env.unwrapped.nominal_model
+
+
+def test_fused_rollout_is_pinned_to_the_model_and_network_functions():
+    """The fused MPC loop equals the reference functions it stands for.
+
+    Reference: the nominal f of ``models.bicycle`` (``BicycleNominal.f`` = slip angles, linear
+    tires, force balance) plus the identifier's network forward (``ResidualNetwork`` →
+    ``identifiers.network_forward``), advanced by Euler sub-steps as the MPC documents, with
+    ``models.integrators.integrate(..., method="euler")`` for the nominal-only and the
+    exact-plant predictions. A change of the model physics (e.g. the slip-angle definition) or
+    of the network that the fused copy does not follow breaks this test.
+    """
+    from simgap.control.mpc import rollout_costs_plant
+    from simgap.models import bicycle as bic
+    from simgap.models.integrators import integrate
+
+    net, model = _trained_network()
+    theta_nom = np.concatenate([model.params.array, [model.vx]])
+    rng = np.random.default_rng(4)
+    U = rng.normal(0.0, 0.06, size=(6, 8))
+    x0, r_ref = np.array([0.3, 0.2]), rng.normal(0.0, 0.2, size=8)
+    dt, n_sub, w_r, w_du, w_u, u_prev = 0.02, 3, 100.0, 10.0, 0.5, 0.01
+
+    def cost(step):
+        out = []
+        for seq in U:
+            x, c, last = x0.copy(), 0.0, u_prev
+            for k, d in enumerate(seq):
+                x = step(x, np.array([d, 0.0]))
+                c += w_r * (x[1] - r_ref[k]) ** 2 + w_du * (d - last) ** 2 + w_u * d * d
+                last = d
+            out.append(c)
+        return np.array(out)
+
+    def with_net(x, u):
+        for _ in range(n_sub):
+            x = x + dt / n_sub * (model.f(x, u) + net(x, u))
+        return x
+
+    W, V = (np.ascontiguousarray(a) for a in net.weights)
+    A, b = np.ascontiguousarray(model.A), np.ascontiguousarray(model.B[:, 0])
+    fused = rollout_costs(x0, U, A, b, W, V, True, dt, n_sub, r_ref, w_r, w_du, w_u, u_prev)
+    np.testing.assert_allclose(fused, cost(with_net), rtol=1e-9)
+    plain = rollout_costs(x0, U, A, b, W, V, False, dt, n_sub, r_ref, w_r, w_du, w_u, u_prev)
+    np.testing.assert_allclose(plain, cost(lambda x, u: integrate(
+        bic.nominal_derivative, x, u, theta_nom, dt, n_sub, method="euler")), rtol=1e-9)
+    assert np.abs(fused / plain - 1.0).max() > 1e-3  # the network is not negligible here
+    # the exact-plant prediction: the env's plant kernel (the states agree bit for bit; the
+    # cost sums may round differently in the compiled loop)
+    env = BicycleTireEnv(mu=0.6)
+    theta = env.plant_theta
+
+    def exact(x, u):
+        return integrate(bic.plant_derivative, np.concatenate([x, np.zeros(4)]), u, theta, dt,
+                         n_sub, method="euler")[:2]
+
+    np.testing.assert_allclose(
+        rollout_costs_plant(x0, U, theta, dt, n_sub, r_ref, w_r, w_du, w_u, u_prev),
+        cost(exact), rtol=1e-13)

@@ -15,6 +15,7 @@ from simgap.diagnosis.augmented import (
 from simgap.diagnosis.effects import VOCABULARY
 from simgap.diagnosis.generate import InjectedEffect, generate_manipulator, manipulator_plant
 from simgap.diagnosis.systems import MechanicalSystem
+from simgap.models import bicycle as bicycle_model
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel, NominalModel
 
@@ -102,7 +103,8 @@ def test_json_round_trip(tmp_path):
     b2 = load_model(save_model(b, tmp_path / "b.json"))
     x, u = np.array([0.2, 0.1]), np.array([0.05, 0.0])
     np.testing.assert_allclose(b2.f(x, u), b.f(x, u))
-    assert b2.env_kwargs()["steering_lag"] == 0.05 and b2.params.m == pytest.approx(1760.0)
+    assert b2.env_kwargs()["plant"].get("steering_lag", "front_axle").params["tau"] == 0.05
+    assert b2.params.m == pytest.approx(1760.0)
     (tmp_path / "bad.json").write_text('{"model": "boat"}')
     with pytest.raises(ModelFileError):
         load_model(tmp_path / "bad.json")
@@ -141,6 +143,18 @@ def test_env_built_from_augmented_model():
                            "params": {"ay0": 0.3}}], vx=20.0)
     benv = BicycleTireEnv(**b.env_kwargs())
     np.testing.assert_allclose(benv.plant_theta, b.plant_theta())
+    # the fitted per-axle mu reaches the env as it is (no mean of the axles)
+    split = AugmentedBicycle([{"effect": "tire_saturation", "channel": "front_axle",
+                               "params": {"mu": 0.9}},
+                              {"effect": "tire_saturation", "channel": "rear_axle",
+                               "params": {"mu": 0.6}}], vx=15.0)
+    senv = BicycleTireEnv(**split.env_kwargs())
+    assert senv.mu_axles == (0.9, 0.6) and senv.vx == 15.0
+    np.testing.assert_array_equal(senv.plant_theta, split.plant_theta())
+    x, u = np.array([0.3, 0.25]), np.array([0.06, 0.0])
+    s = np.concatenate([x, np.zeros(4)])
+    np.testing.assert_allclose(bicycle_model.plant_derivative(s, u, senv.plant_theta)[:2],
+                               split.f(x, u), rtol=1e-12)
 
 
 def test_generator_reproducible():

@@ -1,11 +1,18 @@
 """`simgap record` validates each effect's channel and parameters against the vocabulary."""
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from simgap.cli import app
-from simgap.diagnosis.generate import InjectedEffect, bicycle_plant, manipulator_plant
+from simgap.diagnosis.generate import (
+    InjectedEffect,
+    bicycle_plant,
+    generate_bicycle,
+    manipulator_plant,
+)
 from simgap.errors import GeneratorError
+from simgap.models import bicycle as bic
 
 runner = CliRunner()
 
@@ -28,10 +35,27 @@ def test_record_rejects_a_wrong_channel_or_parameter(tmp_path, model, effect, sa
 
 
 def test_one_road_mu_and_per_axle_channels_are_accepted():
-    one = bicycle_plant([InjectedEffect(effect="tire_saturation", params={"mu": 0.6})], 20.0)
-    front = bicycle_plant([InjectedEffect(effect="tire_saturation", channel="front_axle",
-                                          params={"mu": 0.6})], 20.0)
-    assert (one == front).all()
+    def sat(channel, mu):
+        return InjectedEffect(effect="tire_saturation", channel=channel, params={"mu": mu})
+
+    one = bicycle_plant([sat(None, 0.6)], 20.0)
+    both = bicycle_plant([sat("front_axle", 0.6), sat("rear_axle", 0.6)], 20.0)
+    front = bicycle_plant([sat("front_axle", 0.6)], 20.0)
+    assert (one == both).all()  # one road mu = the same mu on each axle, slot for slot
+    # a front-only saturation saturates the front tire only; the rear stays linear
+    assert (front[bic.MU_F], front[bic.MU_R]) == (0.6, 0.0)
+    assert (one[bic.MU_F], one[bic.MU_R]) == (0.6, 0.6)
+    s, u = np.array([0.5, 0.2, 0, 0, 0, 0]), np.array([0.08, 0.0])  # past the tire peak
+    fyf, fyr, af, ar = bic.plant_forces(s, u, front)
+    p = bic.BicycleParams()
+    fzf, fzr = p.axle_loads()
+    assert fyf == bic.magic_formula(af, p.C_af, fzf, 0.6, 1.3, -0.5) != p.C_af * af
+    assert fyr == p.C_ar * ar != bic.magic_formula(ar, p.C_ar, fzr, 0.6, 1.3, -0.5)
+    assert bic.plant_forces(s, u, one)[1] == bic.magic_formula(ar, p.C_ar, fzr, 0.6, 1.3, -0.5)
+    # and the generator's recording differs from the both-axles one on the same seed
+    effects = {"front": [sat("front_axle", 0.6)], "one": [sat(None, 0.6)]}
+    recs = {k: generate_bicycle(v, duration=3.0, seed=1) for k, v in effects.items()}
+    assert not np.array_equal(recs["front"]["r"], recs["one"]["r"])
     with pytest.raises(GeneratorError, match="unknown effect 'quadratic_friction'"):
         manipulator_plant([InjectedEffect(effect="quadratic_friction", channel="joint1",
                                           params={"c": 1.0})])

@@ -37,6 +37,7 @@ def test_with_effect_without_and_validation():
     plant = bic.PLANT_SCHEMA.plant(effects=(EffectInstance("tire_saturation", None, {"mu": 1}),))
     low = plant.with_effect("tire_saturation", mu=0.4)
     assert low.true_params.mu == 0.4 and plant.true_params.mu == 1.0  # values, not mutation
+    assert (low.array[bic.MU_F], low.array[bic.MU_R]) == (0.4, 0.4)  # what the tires read
     assert low.array[bic.MU] == 0.4 and not low.without("tire_saturation").has("tire_saturation")
     with pytest.raises(ModelError, match="unknown effect"):
         plant.with_effect("warp_drive", x=1.0)
@@ -55,8 +56,8 @@ def test_env_views_follow_the_plant_and_cannot_go_stale():
         env.mu = 0.7
     with pytest.raises(AttributeError):
         env.plant_theta = np.zeros(bic.PLANT.size)
-    env.plant_theta[bic.MU] = 9.0  # a copy: the env's array is untouched
-    assert env.plant.array[bic.MU] == 0.5
+    env.plant_theta[bic.MU_F] = 9.0  # a copy: the env's array is untouched
+    assert env.plant.array[bic.MU_F] == 0.5 and env.mu_axles == (0.5, 0.5)
     with pytest.raises(EnvError, match="speed is fixed"):
         env.plant = env.plant.with_options(vx=10.0)
     wrapped = RandomFriction(BicycleTireEnv(), (0.3, 0.9))
@@ -105,3 +106,43 @@ def test_quadratic_drag_is_one_vocabulary_entry_end_to_end(tmp_path):
     bad = CliRunner().invoke(app, ["record", str(tmp_path / "x.csv"), "--effect",
                                    "quadratic_drag:joint1:c=-1"])
     assert bad.exit_code == 2 and "within" in bad.output
+
+
+def _rollout(env, n=200):
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    return np.array([env.step(rng.uniform(-0.1, 0.1, 2))[0] for _ in range(n)])
+
+
+def test_per_axle_mu_each_tire_reads_its_own_and_equal_axles_are_bit_identical():
+    """μ per axle: equal axles = the one-road-μ env bit for bit; else each tire its own μ."""
+    sat = bic.PLANT_SCHEMA.plant(effects=(
+        EffectInstance("tire_saturation", "front_axle", {"mu": 0.7}),
+        EffectInstance("tire_saturation", "rear_axle", {"mu": 0.7})))
+    one = BicycleTireEnv(mu=0.7)
+    both = BicycleTireEnv(plant=sat)
+    np.testing.assert_array_equal(both.plant_theta, one.plant_theta)
+    np.testing.assert_array_equal(_rollout(both), _rollout(one))
+    assert both.mu == one.mu == 0.7 and both.mu_axles == (0.7, 0.7)
+    # different axles: the view is per axle, the scalar view refuses to pick one
+    split = BicycleTireEnv(plant=sat.with_effect("tire_saturation", "rear_axle", mu=0.4))
+    assert split.mu_axles == (0.7, 0.4)
+    with pytest.raises(EnvError, match="differs per axle.*mu_axles"):
+        _ = split.mu
+    front = BicycleTireEnv(plant=sat.without("tire_saturation", "rear_axle"))
+    assert front.mu_axles == (0.7, None) and front.tire is not None
+    assert BicycleTireEnv(tire="linear").mu_axles == (None, None)
+    assert BicycleTireEnv(tire="linear").mu == 1.0  # the parameter, as before
+    s, u = np.array([0.5, 0.2, 0, 0, 0, 0]), np.array([0.08, 0.0])
+    p = bic.BicycleParams()
+    fzf, fzr = p.axle_loads()
+    fyf, fyr, af, ar = bic.plant_forces(s, u, split.plant_theta)
+    assert fyf == bic.magic_formula(af, p.C_af, fzf, 0.7, 1.3, -0.5)
+    assert fyr == bic.magic_formula(ar, p.C_ar, fzr, 0.4, 1.3, -0.5)
+    fyf, fyr, af, ar = bic.plant_forces(s, u, front.plant_theta)
+    assert fyr == p.C_ar * ar  # no saturation named on the rear axle: its tire is linear
+    assert not np.array_equal(_rollout(split), _rollout(both))
+    with pytest.raises(ValueError, match="needs a Magic Formula tire"):
+        bic.plant_array(p, 20.0, mu=(0.5, 0.6))
+    with pytest.raises(ValueError, match="mu must be a finite positive"):
+        bic.plant_array(p, 20.0, tire=bic.MagicFormulaTire(), mu=(0.5, -1.0))
