@@ -294,6 +294,12 @@ def bicycle_plant(effects: Sequence[InjectedEffect], vx: float,
                                   vx=bic.check_vx(vx)).array
 
 
+#: Largest road-wheel steering amplitude (rad) of the scripted programs: ≈ 29°, a car's lock.
+#: Without it a low-speed recording (``vx = 3`` m/s) asked for up to 2.7 rad to reach
+#: ``ay_peak``, which no vehicle steers and which the unit checks rightly read as degrees.
+MAX_STEER = 0.5
+
+
 def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float = 40.0,
                      rate: float = 100.0, seed: int = 0, vx: float = 20.0,
                      vx_variation: float = 0.15, program: str = "random",
@@ -312,7 +318,8 @@ def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float 
         vx_variation: relative amplitude of a slow (20 s period) speed variation.
         program: steering program (see :func:`steering_program`).
         ay_peak: steady-state lateral acceleration (m/s²) of the largest steering amplitude
-            on the nominal (linear) vehicle; sets the amplitude.
+            on the nominal (linear) vehicle; sets the amplitude, which is capped at
+            :data:`MAX_STEER` (at low speed the requested ``ay_peak`` is then not reached).
         noise_vy: std of vy noise (m/s).
         noise_r: std of yaw-rate noise (rad/s).
         noise_vx: std of vx noise (m/s).
@@ -336,7 +343,7 @@ def generate_bicycle(effects: Sequence[InjectedEffect] = (), *, duration: float 
     t = np.arange(n) * dt
     vx_t = vx * (1.0 + vx_variation * np.sin(2 * np.pi * t / 20.0 + rng.uniform(0, 2 * np.pi)))
     gain = vx**2 / (p.wheelbase + p.understeer_gradient() * vx**2)  # ay per rad, steady state
-    df = steering_program(t, rng, program, ay_peak / gain)
+    df = steering_program(t, rng, program, min(ay_peak / gain, MAX_STEER))
     delta = np.ascontiguousarray(np.stack([df, rear_steer * df], axis=1))
     states = _bicycle_loop(theta, vx_t, delta, dt, int(n_sub))
     cols = {"t": t, "vx": vx_t + rng.normal(0.0, noise_vx, n),

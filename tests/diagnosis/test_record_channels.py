@@ -59,3 +59,24 @@ def test_one_road_mu_and_per_axle_channels_are_accepted():
     with pytest.raises(GeneratorError, match="unknown effect 'quadratic_friction'"):
         manipulator_plant([InjectedEffect(effect="quadratic_friction", channel="joint1",
                                           params={"c": 1.0})])
+
+
+
+def test_low_speed_recording_steers_like_a_car_and_passes_the_unit_checks(tmp_path):
+    """At vx = 3 m/s the steady-state gain asked for up to 2.7 rad to reach ay_peak: the
+    amplitude is capped at MAX_STEER, and the file's own diagnosis does not read degrees."""
+    from simgap.diagnosis.generate import MAX_STEER, generate_bicycle
+
+    slow = generate_bicycle(duration=20.0, vx=3.0, seed=0)
+    assert np.max(np.abs(slow["delta_f"])) <= MAX_STEER + 1e-12
+    fast = generate_bicycle(duration=20.0, vx=20.0, seed=0)
+    assert np.max(np.abs(fast["delta_f"])) < MAX_STEER  # the cap binds only when slow
+    path = tmp_path / "car.csv"
+    runner = CliRunner()
+    res = runner.invoke(app, ["record", str(path), "--model", "bicycle", "--vx", "3",
+                              "--duration", "20"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["diagnose", str(path), "--model", "bicycle",
+                              "--out", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    assert "degree" not in res.output.lower()
