@@ -252,9 +252,11 @@ class AugmentedMechanical(MechanicalNominalModel):
 
     Args:
         base: the nominal model.
-        system: the prepared :class:`~simgap.diagnosis.systems.MechanicalSystem` (effect
-            context).
+        system: the :class:`~simgap.diagnosis.systems.MechanicalSystem` form of ``base``
+            (the effects' context).
         fitted: (effect, index, lin, nl) tuples from the fit.
+        coulomb_sigma: tanh smoothing velocity of the Coulomb/Stribeck terms per joint (rad/s
+            or m/s), as the diagnosis used it; default 1e-3.
         effects: the reported effects (dicts as in the report's ``effects``), for the JSON.
         source: ``path/to/model.py:NAME`` of a user model, so the JSON can be read back.
 
@@ -262,9 +264,15 @@ class AugmentedMechanical(MechanicalNominalModel):
     """
 
     def __init__(self, base: MechanicalNominalModel, system: Any,
-                 fitted: Sequence[tuple], *, effects: Sequence[Mapping[str, Any]] = (),
+                 fitted: Sequence[tuple], *, coulomb_sigma: Sequence[float] | None = None,
+                 effects: Sequence[Mapping[str, Any]] = (),
                  source: str | None = None) -> None:
         self.base, self.system, self.fitted = base, system, list(fitted)
+        n = len(base.input_names)
+        self.coulomb_sigma = np.array(np.full(n, 1e-3) if coulomb_sigma is None
+                                      else coulomb_sigma, dtype=np.float64)
+        self.coulomb_sigma.flags.writeable = False
+        self.context = system.effect_context(self.coulomb_sigma)
         self.effects = [dict(e) for e in effects]
         self.source = source
         self.name = f"{getattr(base, 'name', 'mechanical')}+effects"
@@ -287,11 +295,12 @@ class AugmentedMechanical(MechanicalNominalModel):
                             "lin": [float(v) for v in np.atleast_1d(lin)],
                             "nl": [float(v) for v in np.atleast_1d(nl)]}
                            for e, i, lin, nl in self.fitted],
-                "options": {"coulomb_sigma": [float(v) for v in self.system.coulomb_sigma],
+                "options": {"coulomb_sigma": [float(v) for v in self.coulomb_sigma],
                             "dt": float(self.dt)}}
 
     def _split(self, q, dq):
-        a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq))
+        a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq),
+                                         self.context)
         return a[0], b[0]
 
     def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802

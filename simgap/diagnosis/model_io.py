@@ -55,7 +55,7 @@ def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
                                      "model=...))")
             model = load_model_file(d["model_file"])
         system = ModelMechanicalSystem(model)
-        system.coulomb_sigma = np.asarray(d["options"]["coulomb_sigma"], dtype=np.float64)
+        sigma = np.asarray(d["options"]["coulomb_sigma"], dtype=np.float64)
         fitted = []
         for term in d["fitted"]:
             if term["effect"] not in VOCABULARY:
@@ -65,8 +65,8 @@ def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
                            np.asarray(term["nl"], dtype=np.float64)))
     except (KeyError, TypeError) as err:
         raise ModelFileError(f"augmented model description is incomplete: {err}") from None
-    return AugmentedMechanical(model, system, fitted, effects=d.get("effects", ()),
-                               source=d.get("model_file"))
+    return AugmentedMechanical(model, system, fitted, coulomb_sigma=sigma,
+                               effects=d.get("effects", ()), source=d.get("model_file"))
 
 
 def load_augmented(path: str | os.PathLike, model: Any = None) -> Any:
