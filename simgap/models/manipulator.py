@@ -637,6 +637,16 @@ def _spring_report(effect, lin, nl, cov, context):
             {"k": "{effort}/{position}", "q0": "{position}"})
 
 
+def _stribeck_coords(params, context):
+    """Fit coordinates of a reported Stribeck term: A = Fs − Fc (same joint's Coulomb Fc)."""
+    return (params["Fs"] - context.get("Fc", 0.0),), (params["vs"],)
+
+
+def _spring_coords(params, context):
+    """Fit coordinates of a reported spring k·(q − q0): k and c = −k·q0."""
+    return (params["k"], -params["k"] * params["q0"]), ()
+
+
 _INF = math.inf
 
 
@@ -702,7 +712,7 @@ VOCABULARY = (
                            nl=("vs",), nl_units=("{position}/s",), nl_bounds=((1e-3, 2.0),),
                            nl_grid=((0.01, 0.03, 0.1, 0.3),),
                            generalizes=("coulomb_friction",), fn=_fit_stribeck,
-                           to_report=_stribeck_report)),
+                           to_report=_stribeck_report, from_report=_stribeck_coords)),
     EffectSpec(name="quadratic_drag", label="quadratic drag", scope="channel",
                params=(Param(name="c", unit="{effort}·s²/{position}²", bounds=_NONNEG,
                              inject=(0.01, 0.1)),),
@@ -724,7 +734,8 @@ VOCABULARY = (
                fit=FitSpec(scope="joint", lin=("k", "c"),
                            lin_units=("{effort}/{position}", "{effort}"),
                            lin_lower=(-_INF, -_INF), generalizes=("torque_bias",),
-                           fn=_fit_spring, to_report=_spring_report)),
+                           fn=_fit_spring, to_report=_spring_report,
+                           from_report=_spring_coords)),
     EffectSpec(name="payload_mass", label="payload mass", scope="system",
                params=(Param(name="mp", unit="kg", bounds=_NONNEG, inject=(0.1, 0.5)),),
                write=_payload,
