@@ -94,6 +94,8 @@ STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
+#: Effects of the vehicle's vocabulary that another effect needs (its coupling declaration).
+_NEEDED = frozenset(n for e in BICYCLE_EFFECTS for n in e.needs)
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
 
 
@@ -483,14 +485,16 @@ class BicycleSystem:
 
         Args:
             prepared: the prepared recording (its lag filter input).
-            terms: (effect, axle index, lin, nl) of one model; the mu of its
-                tire_saturation terms per axle is what the steering lag composes with.
+            terms: (effect, axle index, lin, nl) of one model. The terms other effects
+                ``need`` (the vocabulary's coupling: a steering lag needs the
+                tire_saturation of its axle) give their nonlinear value per axle
+                (``axle_mu``), which the needing effect composes with.
         """
         return EffectContext(n_channels=2, stiffness=self.stiffness, loads=self.loads,
                              tire=self.tire, K_inv=self.K_inv,
                              lagged_steering=partial(self.lagged_steering, prepared),
                              axle_mu={i: float(nl[0]) for eff, i, _lin, nl in terms
-                                      if eff.name == "tire_saturation"})
+                                      if eff.name in _NEEDED and len(nl)})
 
     def locate_variables(self, prepared: Prepared) -> dict[str, tuple[np.ndarray, str]]:
         """Variables the residual may depend on: name -> (values, unit)."""
@@ -532,9 +536,8 @@ class BicycleSystem:
 
 
 # --------------------------------------------------------------------------- adapters
-#: A Stribeck velocity above this share of the joint's largest recorded speed is not a
-#: low-speed effect any more: it would only reshape the Coulomb/viscous curve.
-STRIBECK_MAX_SHARE = 0.25
+#: Kept for one release: the bound now lives with the Stribeck vocabulary entry.
+STRIBECK_MAX_SHARE = man.STRIBECK_MAX_SHARE
 
 
 def _mechanical_names(model: Any) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
@@ -584,13 +587,11 @@ class ModelMechanicalSystem(MechanicalSystem):
     * units come from the model: positions/velocities from ``obs_units``, efforts from
       ``residual_units`` (N for a prismatic joint), and every vocabulary parameter's unit is
       rewritten accordingly (viscous b in N·s/m, Coulomb Fc in N, …);
-    * the Stribeck velocity vs is bounded by :data:`STRIBECK_MAX_SHARE` of the joint's
-      largest recorded speed (and its start grid scales with it): the bounds of the
-      vocabulary, in rad/s, mean nothing for a slider moving at 0.1 m/s, and a "Stribeck"
-      term with vs near the top speed only reshapes Coulomb + viscous friction (on the EMPS
-      data it then displaces the Coulomb term; see ``tests/diagnosis/test_real_emps.py``);
-    * whole-arm ``gravity_mismatch`` is not tested when the model has no gravity torque on
-      the recorded positions;
+    * the vocabulary is scaled to the data as each effect declares (``FitSpec.for_data``):
+      the Stribeck velocity vs is bounded by a share of the joint's largest recorded speed
+      (the vocabulary's bounds, in rad/s, mean nothing for a slider moving at 0.1 m/s; see
+      ``tests/diagnosis/test_real_emps.py``), and whole-arm ``gravity_mismatch`` is not
+      tested when the model has no gravity torque on the recorded positions;
     * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
       ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
       them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
@@ -620,27 +621,27 @@ class ModelMechanicalSystem(MechanicalSystem):
         self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
 
     def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
-        """List the base candidates with model units and data-scaled Stribeck bounds."""
+        """The base candidates in the model's units, scaled to the data by the vocabulary.
+
+        Each effect's ``for_data`` (its vocabulary declaration) adapts it to the recording
+        (Stribeck's vs bound) or leaves it out (gravity_mismatch without gravity).
+        """
         out = []
         sig = prepared.signals
-        vmax = np.max(np.abs(sig["dq"]), axis=0)
-        gravity = np.abs(self.gravity(sig["q"])).max() if sig["q"].size else 0.0
+        ctx = self.context(prepared)
         own = getattr(self.model, "nominal_coefficients", None)
         coefficients = own() if callable(own) else {}
         for effect, j, channel in super().candidates(prepared):
-            if effect.name == "gravity_mismatch" and gravity == 0.0:
-                continue
             k = 0 if j is None else j
             effect = effect.in_units(effort=self.channel_units[k],
                                      position=self.position_units[k])
             if j is not None and coefficients:  # signed corrections of the nominal's terms
                 effect = effect.with_nominal(coefficients, j)
-            changes: dict[str, Any] = {}
-            if effect.name == "stribeck_friction" and j is not None:
-                hi = max(STRIBECK_MAX_SHARE * float(vmax[j]), 2e-3)
-                changes["nl_bounds"] = ((1e-3 * hi, hi),)
-                changes["nl_grid"] = (tuple(hi * np.array([0.05, 0.15, 0.4, 0.9])),)
-            out.append((dataclasses.replace(effect, **changes), j, channel))
+            if effect.for_data is not None:
+                effect = effect.for_data(effect, sig, j, ctx)
+                if effect is None:
+                    continue
+            out.append((effect, j, channel))
         return out
 
 

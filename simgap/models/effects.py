@@ -95,6 +95,12 @@ class FitSpec:
         to_report: ``to_report(effect, lin, nl, cov, context) -> (params, stderr, units)``;
             ``None``: the fit coordinates are the reported parameters. ``context`` holds
             the fitted values of the effects this one ``needs`` on the same channel.
+        for_data: ``for_data(effect, sig, index, ctx) -> effect | None``: the candidate as
+            one recording allows it, for forms that scale the vocabulary to the data (any
+            mechanical model but the built-in arm): bounds scaled to the recorded motion
+            (Stribeck's vs), or ``None`` when the recording holds no information about it
+            (gravity_mismatch of a model without gravity torques). ``sig``: the prepared
+            signals; ``ctx``: the form's effect context. ``None``: used as declared.
         from_report: the inverse, ``from_report(params, context) -> (lin, nl)``: the fit
             coordinates of reported parameters (how a saved augmented model is simulated
             again); ``context`` as for ``to_report``. ``None`` with ``to_report`` unset:
@@ -120,6 +126,8 @@ class FitSpec:
         = field(default=None, repr=False)
     from_report: Callable[[Mapping[str, float], Mapping[str, float]],
                           tuple[tuple[float, ...], tuple[float, ...]]] | None \
+        = field(default=None, repr=False)
+    for_data: Callable[[Any, Mapping[str, np.ndarray], int | None, Any], Any] | None \
         = field(default=None, repr=False)
 
     def coordinates(self, params: Mapping[str, float], context: Mapping[str, float] | None = None

@@ -115,3 +115,38 @@ def test_batch_rk4_is_the_integrators_formula() -> None:
     got = rk4_batch_step(batch, x, 0.002)
     want = np.stack([rk4_step(man.nominal_derivative, r, u, la, 0.002) for r in x])
     assert np.array_equal(got, want)
+
+
+def test_forms_take_data_rules_and_coupling_from_the_vocabulary() -> None:
+    """The Stribeck bound, the gravity exclusion and the steering lag's coupling are the
+    effects' declarations (FitSpec.for_data, EffectSpec.needs), not the adapters' code."""
+    import inspect
+
+    from simgap.diagnosis import systems
+    from simgap.models import manipulator as man
+    from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
+
+    source = inspect.getsource(systems)
+    for name in ("stribeck_friction", "gravity_mismatch", "tire_saturation"):
+        assert f'"{name}"' not in source
+    specs = {s.name: s for s in man.VOCABULARY}
+    assert specs["stribeck_friction"].fit.for_data is not None
+    assert specs["gravity_mismatch"].fit.for_data is not None
+    # a horizontal slider: no gravity term is tried; vs is bounded by its recorded speed
+    form = systems.ModelMechanicalSystem(RigidAxisNominal(RigidAxisParams(mass=2.0)))
+    t = np.arange(3000) * 1e-3
+    q = 0.05 * np.sin(2 * np.pi * t)
+    rec = form.prepare(_axis_recording(form, t, q))
+    cands = {(e.name, j): e for e, j, _ in form.candidates(rec)}
+    assert ("gravity_mismatch", None) not in cands
+    vmax = float(np.max(np.abs(rec.signals["dq"])))
+    assert cands[("stribeck_friction", 0)].nl_bounds[0][1] == pytest.approx(
+        man.STRIBECK_MAX_SHARE * vmax)
+    assert systems.STRIBECK_MAX_SHARE == man.STRIBECK_MAX_SHARE      # kept alias
+
+
+def _axis_recording(form, t, q):
+    from simgap.recordings import Recording
+
+    cols = {"t": t, "q": q, "dq": np.gradient(q, t), "u": 2.0 * np.gradient(np.gradient(q, t), t)}
+    return Recording("axis", {k: cols[k] for k in form.columns.required}, {})
