@@ -12,9 +12,9 @@ Two forms exist (in :mod:`simgap.diagnosis.systems`), one per kind of residual, 
 built-in vs user model:
 
 * mechanical inverse dynamics, tau − M(q) ddq − bias(q, dq) (N·m per revolute joint, N per
-  prismatic one; units from the model): ``MechanicalSystem`` (the two-link arm, with its
-  fast kernels and the payload effect) and ``ModelMechanicalSystem`` (any other
-  :class:`~simgap.models.base.MechanicalNominalModel`);
+  prismatic one; columns and units from the model): ``MechanicalSystem``, for the
+  two-link arm (with its fast kernels and payload effect) and any other
+  :class:`~simgap.models.base.MechanicalNominalModel` alike;
 * the axle-force residual Delta = K⁻¹ g of the bicycle: ``BicycleSystem``.
 
 :class:`ResidualForm` states the interface. Effects do not see the form: an effect's

@@ -53,7 +53,7 @@ def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
 
     if d.get("kind") != "mechanical":
         return model_from_dict(d)
-    from simgap.diagnosis.systems import ModelMechanicalSystem
+    from simgap.diagnosis.systems import MechanicalSystem
     from simgap.diagnosis.user_models import load_model_file
 
     try:
@@ -65,7 +65,7 @@ def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
                                      "file: pass the nominal model (load_augmented(path, "
                                      "model=...))")
             model = load_model_file(source)
-        system = ModelMechanicalSystem(model)
+        system = MechanicalSystem(model)
         if "plant" in d:   # today's layout: the augmented Plant
             try:
                 plant = Plant.from_dict(d["plant"], mechanical_schema(model, system.channels))

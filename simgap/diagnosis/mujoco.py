@@ -36,7 +36,7 @@ import numpy as np
 
 from simgap.diagnosis.effects import PAYLOAD, VOCABULARY, Effect
 from simgap.diagnosis.forms import EffectContext, Prepared
-from simgap.diagnosis.systems import ModelMechanicalSystem
+from simgap.diagnosis.systems import MechanicalSystem
 from simgap.diagnosis.user_models import column_map_of, with_columns
 from simgap.errors import CustomModelError
 from simgap.models.mujoco import MujocoNominal, from_mjcf
@@ -81,7 +81,7 @@ def _payload_at(point: tuple[str, int, np.ndarray]) -> Effect:
                   lin_upper=PAYLOAD.lin_upper, uses_derivatives=True, fn=fn)
 
 
-class MujocoSystem(ModelMechanicalSystem):
+class MujocoSystem(MechanicalSystem):
     """Diagnosis adapter of a :class:`~simgap.models.mujoco.MujocoNominal` (module docstring)."""
 
     def __init__(self, model: MujocoNominal) -> None:

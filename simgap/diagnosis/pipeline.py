@@ -44,7 +44,7 @@ from simgap.diagnosis.effects import needs_context, nominal_corrections, report_
 from simgap.diagnosis.fit import Fitter, Selection, Term
 from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.shares import explained_section
-from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
+from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.diagnosis.validation import NO_INFORMATION, gap_segments
@@ -202,7 +202,7 @@ def _adapter(model: Any, recorded: set[str] | None) -> Any:
     if recorded is not None:
         n = len(model.input_names)
         velocities = all(c in recorded for c in tuple(model.obs_names)[n:2 * n])
-    return ModelMechanicalSystem(model, velocities=velocities)
+    return MechanicalSystem(model, velocities=velocities)
 
 
 def _read(recording: Recording | str | os.PathLike, model: Any,

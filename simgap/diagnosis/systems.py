@@ -138,39 +138,73 @@ def _manip_mass_batch(la, q):  # pragma: no cover - compiled
 
 
 class MechanicalSystem:
-    """Adapter for a :class:`MechanicalNominalModel` (see the module docstring).
+    """The mechanical residual form, for any :class:`MechanicalNominalModel`.
+
+    One form for the built-in arm and every user model (``path.py:NAME``, MJCF); what
+    differs comes from the model or the data:
+
+    * columns, channels and units come from the model: the canonical columns
+      (``obs_names`` = positions + velocities, ``input_names``), positions/velocities in
+      ``obs_units``, efforts in ``residual_units`` (N for a prismatic joint), and every
+      vocabulary parameter's unit is written for the joint (viscous b in N·s/m, Coulomb Fc
+      in N, …); velocities are read when recorded and derived from positions otherwise;
+    * the vocabulary is scaled to the data as each effect declares (``FitSpec.for_data``):
+      the Stribeck velocity vs is bounded by a share of the joint's largest recorded speed
+      (the vocabulary's bounds, in rad/s, mean nothing for a slider moving at 0.1 m/s; see
+      ``tests/diagnosis/test_real_emps.py``), and whole-arm ``gravity_mismatch`` is not
+      tested when the model has no gravity torque on the recorded positions. A model whose
+      vocabulary bounds are written for it says ``vocabulary_scaled_to_data = False`` (the
+      two-link arm);
+    * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
+      ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
+      them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
+      nominal value): "the nominal damping is 15 % too high" is an answer;
+    * the two-link arm (``ManipulatorNominal``) gets fast batched kernels and its own
+      effects (payload at the tip, cubic stiffness).
 
     Args:
-        model: the nominal model; ``ManipulatorNominal`` gets fast batched kernels and the
-            payload effect, any other mechanical model is evaluated sample by sample through
-            its ``M`` and ``bias``.
-        columns: column map; default: the manipulator's spec columns.
-        name: model name for the report.
-        channels: channel names (default ``joint1..n``).
+        model: the nominal model.
+        columns: the recording columns; default: the model's canonical ones.
+        name: model name for the report (default: the model's ``name``).
+        channels: channel names (default: the model's ``channel_names``, else
+            ``joint1..n``).
+        velocities: whether the recording holds the velocities (canonical ``dq`` columns);
+            ``None``: recorded unless the model's column map leaves them out. Only with the
+            default ``columns``.
     """
 
     kind = "mechanical"
 
-    def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns = MANIPULATOR_COLUMNS,
-                 name: str | None = None, channels: Sequence[str] | None = None) -> None:
+    def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns | None = None,
+                 name: str | None = None, channels: Sequence[str] | None = None, *,
+                 velocities: bool | None = None) -> None:
+        if columns is None:
+            q, dq, u = _mechanical_names(model)
+            if velocities is None:  # decided by the model's declaration and column map
+                recorded = set(getattr(model, "recording_columns", ()))
+                cmap = getattr(model, "column_map", None)
+                velocities = all(c in recorded and (cmap is None or c in cmap.columns)
+                                 for c in dq)
+            columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
         self.model = model
         self.columns = columns
         self.n_channels = len(columns.q)
         if len(columns.u) != self.n_channels or (columns.dq and len(columns.dq) !=
                                                  self.n_channels):
             raise ValueError("column map needs one q, (dq) and u column per joint")
-        self.name = name or getattr(model, "name", "mechanical")
+        self.name = name or _label(model)
+        if channels is None:
+            own = tuple(getattr(model, "channel_names", ()) or ())
+            channels = own if len(own) == self.n_channels else None
         self.channels = tuple(channels or (f"joint{i + 1}" for i in range(self.n_channels)))
-        units = getattr(model, "residual_units", None)
-        self.channel_units = tuple(units) if units and len(units) == self.n_channels else \
-            ("N·m",) * self.n_channels
+        self.position_units, self.channel_units = _joint_units(model, self.n_channels)
         self.is_manipulator = isinstance(model, man.ManipulatorNominal)
-        self.coulomb_sigma = np.full(self.n_channels, 1e-3)
+        self.scaled_to_data = bool(getattr(model, "vocabulary_scaled_to_data", True))
         self.state_names = tuple(columns.q) + tuple(columns.dq or
                                                      (f"d{c}" for c in columns.q))
-        self.state_units = ("rad",) * self.n_channels + ("rad/s",) * self.n_channels
+        self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
         self.derivative_names = tuple(f"dd{c}" for c in columns.q)
-        self.derivative_units = ("rad/s²",) * self.n_channels
+        self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
         self.rollout_horizon = 0.2
 
     # -- model quantities --------------------------------------------------------------
@@ -203,17 +237,32 @@ class MechanicalSystem:
         return self.inverse_dynamics(q, dq, ddq, heavy) - self.inverse_dynamics(q, dq, ddq)
 
     def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
-        """Vocabulary effects to test: (effect, channel index or None, channel name)."""
-        out: list[tuple[Effect, int | None, str]] = []
-        for e in MECHANICAL_EFFECTS:
-            if e.scope == "joint":
-                out += [(e, j, self.channels[j]) for j in range(self.n_channels)]
+        """Vocabulary effects to test: (effect, channel index or None, channel name).
+
+        In the model's units, as corrections of its own terms where it has them, and
+        scaled to the data by each effect's ``for_data`` (see the class docstring).
+        """
+        base: list[tuple[Effect, int | None, str]] = []
+        for e in MECHANICAL_EFFECTS + (ARM_EFFECTS if self.is_manipulator else ()):
+            if e.scope == "joint":  # the arm's own effects (payload, cubic stiffness) last
+                base += [(e, j, self.channels[j]) for j in range(self.n_channels)]
             else:
-                out.append((e, None, "arm"))
-        if self.is_manipulator:  # the arm's own effects (payload, cubic stiffness)
-            for e in ARM_EFFECTS:
-                out += [(e, j, self.channels[j]) for j in range(self.n_channels)] \
-                    if e.scope == "joint" else [(e, None, "arm")]
+                base.append((e, None, "arm"))
+        own = getattr(self.model, "nominal_coefficients", None)
+        coefficients = own() if callable(own) else {}
+        sig, ctx = prepared.signals, self.context(prepared)
+        out = []
+        for effect, j, channel in base:
+            k = 0 if j is None else j
+            effect = effect.in_units(effort=self.channel_units[k],
+                                     position=self.position_units[k])
+            if j is not None and coefficients:  # signed corrections of the nominal's terms
+                effect = effect.with_nominal(coefficients, j)
+            if self.scaled_to_data and effect.for_data is not None:
+                effect = effect.for_data(effect, sig, j, ctx)
+                if effect is None:
+                    continue
+            out.append((effect, j, channel))
         return out
 
     # -- signals and residual ----------------------------------------------------------
@@ -579,78 +628,21 @@ def translate_unit(unit: str, position: str, effort: str) -> str:
     return format_unit(_REVOLUTE_TEMPLATES.get(unit, unit), effort=effort, position=position)
 
 
-class ModelMechanicalSystem(MechanicalSystem):
-    """:class:`~simgap.diagnosis.systems.MechanicalSystem` for any mechanical model.
-
-    Differences from the base adapter, all driven by the model or the data:
-
-    * units come from the model: positions/velocities from ``obs_units``, efforts from
-      ``residual_units`` (N for a prismatic joint), and every vocabulary parameter's unit is
-      rewritten accordingly (viscous b in N·s/m, Coulomb Fc in N, …);
-    * the vocabulary is scaled to the data as each effect declares (``FitSpec.for_data``):
-      the Stribeck velocity vs is bounded by a share of the joint's largest recorded speed
-      (the vocabulary's bounds, in rad/s, mean nothing for a slider moving at 0.1 m/s; see
-      ``tests/diagnosis/test_real_emps.py``), and whole-arm ``gravity_mismatch`` is not
-      tested when the model has no gravity torque on the recorded positions;
-    * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
-      ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
-      them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
-      nominal value): "the nominal damping is 15 % too high" is an answer.
-
-    Args:
-        model: the nominal model.
-        name: model name for the report (default: the model's ``name``).
-        velocities: whether the recording holds the velocities (canonical ``dq`` columns);
-            ``None``: recorded unless the model's column map leaves them out.
-    """
-
-    def __init__(self, model: MechanicalNominalModel, name: str | None = None, *,
-                 velocities: bool | None = None) -> None:
-        q, dq, u = _mechanical_names(model)
-        if velocities is None:  # decided by the model's declaration and column map
-            recorded = set(getattr(model, "recording_columns", ()))
-            cmap = getattr(model, "column_map", None)
-            velocities = all(c in recorded and (cmap is None or c in cmap.columns) for c in dq)
-        columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
-        channels = tuple(getattr(model, "channel_names", ()) or ())
-        super().__init__(model, columns=columns, name=name or _label(model),
-                         channels=channels if len(channels) == len(q) else None)
-        self.position_units, effort = _joint_units(model, len(q))
-        self.channel_units = effort
-        self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
-        self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
-
-    def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
-        """The base candidates in the model's units, scaled to the data by the vocabulary.
-
-        Each effect's ``for_data`` (its vocabulary declaration) adapts it to the recording
-        (Stribeck's vs bound) or leaves it out (gravity_mismatch without gravity).
-        """
-        out = []
-        sig = prepared.signals
-        ctx = self.context(prepared)
-        own = getattr(self.model, "nominal_coefficients", None)
-        coefficients = own() if callable(own) else {}
-        for effect, j, channel in super().candidates(prepared):
-            k = 0 if j is None else j
-            effect = effect.in_units(effort=self.channel_units[k],
-                                     position=self.position_units[k])
-            if j is not None and coefficients:  # signed corrections of the nominal's terms
-                effect = effect.with_nominal(coefficients, j)
-            if effect.for_data is not None:
-                effect = effect.for_data(effect, sig, j, ctx)
-                if effect is None:
-                    continue
-            out.append((effect, j, channel))
-        return out
-
-
 def _label(model: Any) -> str:
     return getattr(model, "name", None) or type(model).__name__
 
 
 def __getattr__(name: str) -> Any:
-    """Deprecated aliases (one release): ``ColumnMap`` is now :class:`AdapterColumns`."""
+    """Deprecated aliases, kept for one release.
+
+    ``ColumnMap`` is now :class:`AdapterColumns`; ``ModelMechanicalSystem`` is
+    :class:`MechanicalSystem` (one mechanical form).
+    """
+    if name == "ModelMechanicalSystem":
+        warnings.warn("simgap.diagnosis.systems.ModelMechanicalSystem is deprecated: "
+                      "MechanicalSystem is the one mechanical form (columns and units from "
+                      "the model)", DeprecationWarning, stacklevel=2)
+        return MechanicalSystem
     if name == "ColumnMap":
         warnings.warn("simgap.diagnosis.systems.ColumnMap is deprecated: describe a file with "
                       "simgap.recordings.ColumnMap (diagnose(..., columns=)); the adapters' "

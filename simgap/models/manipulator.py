@@ -482,6 +482,9 @@ class ManipulatorNominal(MechanicalNominalModel):
     obs_names = OBS_NAMES
     obs_units = OBS_UNITS
     recording_columns = RECORDING_COLUMNS
+    #: The vocabulary's fit bounds (rad/s, N·m) are written for this arm: the diagnosis uses
+    #: them as declared instead of scaling them to the recorded motion (FitSpec.for_data).
+    vocabulary_scaled_to_data = False
 
     def __init__(self, params: ManipulatorParams | None = None, dt: float = 0.002) -> None:
         validate_positive("dt", dt)

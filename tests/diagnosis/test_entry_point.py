@@ -308,7 +308,9 @@ def test_canonical_recording_with_a_mapped_model(tmp_path: Path) -> None:
     ("simgap.diagnosis.custom", "with_columns", "simgap.diagnosis.user_models.with_columns"),
     ("simgap.diagnosis.custom", "make_system", "simgap.diagnosis.pipeline.make_system"),
     ("simgap.diagnosis.custom", "ModelMechanicalSystem",
-     "simgap.diagnosis.systems.ModelMechanicalSystem"),
+     "simgap.diagnosis.systems.MechanicalSystem"),
+    ("simgap.diagnosis.systems", "ModelMechanicalSystem",
+     "simgap.diagnosis.systems.MechanicalSystem"),
     ("simgap.diagnosis.systems", "ColumnMap", "simgap.diagnosis.systems.AdapterColumns"),
 ])
 def test_moved_names_warn_and_still_work(module: str, name: str, new: str) -> None:

@@ -133,7 +133,7 @@ def test_forms_take_data_rules_and_coupling_from_the_vocabulary() -> None:
     assert specs["stribeck_friction"].fit.for_data is not None
     assert specs["gravity_mismatch"].fit.for_data is not None
     # a horizontal slider: no gravity term is tried; vs is bounded by its recorded speed
-    form = systems.ModelMechanicalSystem(RigidAxisNominal(RigidAxisParams(mass=2.0)))
+    form = systems.MechanicalSystem(RigidAxisNominal(RigidAxisParams(mass=2.0)))
     t = np.arange(3000) * 1e-3
     q = 0.05 * np.sin(2 * np.pi * t)
     rec = form.prepare(_axis_recording(form, t, q))
@@ -150,3 +150,21 @@ def _axis_recording(form, t, q):
 
     cols = {"t": t, "q": q, "dq": np.gradient(q, t), "u": 2.0 * np.gradient(np.gradient(q, t), t)}
     return Recording("axis", {k: cols[k] for k in form.columns.required}, {})
+
+
+def test_one_mechanical_form_for_the_arm_and_user_models() -> None:
+    """The arm is one more mechanical model: the same form class, columns and units from
+    the model; only its declared capabilities differ (fast kernels, payload, fixed bounds)."""
+    from simgap.diagnosis import systems
+    from simgap.diagnosis.pipeline import make_system
+    from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
+
+    arm, axis = make_system("manipulator2dof"), make_system(
+        RigidAxisNominal(RigidAxisParams(mass=2.0)))
+    assert type(arm) is type(axis) is MechanicalSystem
+    assert arm.columns == systems.MANIPULATOR_COLUMNS and arm.channel_units == ("N·m",) * 2
+    assert arm.state_units == ("rad", "rad", "rad/s", "rad/s")
+    assert axis.channel_units == ("N",) and axis.state_units == ("m", "m/s")
+    assert not arm.scaled_to_data and axis.scaled_to_data
+    with pytest.warns(DeprecationWarning, match="ModelMechanicalSystem is deprecated"):
+        assert systems.ModelMechanicalSystem is MechanicalSystem
