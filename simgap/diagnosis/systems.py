@@ -444,17 +444,31 @@ class BicycleSystem:
         self.rollout_horizon = 1.0
 
     def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
-        """Vocabulary effects to test (steering lag only on axles whose command varies)."""
-        out: list[tuple[Effect, int | None, str]] = []
+        """Vocabulary effects to test, adapted to the data by each effect's ``for_data``.
+
+        The steering lag is tested only on axles whose command varies. That rule is still
+        written here: its declaration belongs with the steering_lag entry of
+        :mod:`simgap.models.bicycle` (``FitSpec.for_data``), which a change on the models
+        side makes.
+        """
+        base: list[tuple[Effect, int | None, str]] = []
         for e in BICYCLE_EFFECTS:
             if e.scope == "axle":
                 for i in range(2):
                     key = ("delta_f", "delta_r")[i]
                     if e.name == "steering_lag" and np.ptp(prepared.signals[key]) < 1e-6:
                         continue
-                    out.append((e, i, self.channels[i]))
+                    base.append((e, i, self.channels[i]))
             else:
-                out.append((e, None, "vehicle"))
+                base.append((e, None, "vehicle"))
+        ctx = self.context(prepared)
+        out = []
+        for e, i, channel in base:
+            if e.for_data is not None:
+                e = e.for_data(e, prepared.signals, i, ctx)
+                if e is None:
+                    continue
+            out.append((e, i, channel))
         return out
 
     def _slips(self, vy, r, delta_f, delta_r, vx) -> tuple[np.ndarray, np.ndarray]:
