@@ -350,5 +350,5 @@ def test_facade_is_lazy_and_complete() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     for name in ("diagnose", "Report", "generate", "InjectedEffect", "ColumnMap", "Column",
-                 "write_report", "summary_lines", "load_augmented"):
+                 "write_report", "summary_lines", "load_augmented", "ResidualForm", "Prepared"):
         assert f"'{name}'" in out
