@@ -108,7 +108,7 @@ def run(test_seconds: float | None) -> dict:
     dt = float(np.median(np.diff(t)))
     slope = np.polyfit(t[:INIT_WINDOW] - t[0], y[:INIT_WINDOW], 1)[0]
     x0 = np.array([y[0], slope])
-    sigma = float(np.atleast_1d(aug.system.coulomb_sigma)[0])
+    sigma = float(np.atleast_1d(aug.coulomb_sigma)[0])
     models = {"simgap_augmented": aug.f, "nominal": model.f,
               "published_physics": published_f(sigma)}
     results = {}

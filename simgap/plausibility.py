@@ -440,9 +440,15 @@ def check_recording(rec: Any, system: Any) -> None:
         check_kinematics(rec.name, data, data[time], list(zip(cols.q, cols.dq, strict=True)))
 
 
-def check_prepared(rec: Any, system: Any) -> None:
-    """Checks on the prepared adapter: recorded effort vs the nominal model's need."""
-    sig = getattr(system, "sig", None)
+def check_prepared(rec: Any, system: Any, prepared: Any) -> None:
+    """Checks on the prepared recording: recorded effort vs the nominal model's need.
+
+    Args:
+        rec: the recording (its name).
+        system: the residual form.
+        prepared: what ``system.prepare(rec)`` returned (its filtered ``signals``).
+    """
+    sig = getattr(prepared, "signals", None)
     if sig is not None and {"vy", "r", "dvy", "dr", "vx", "delta_f"} <= set(sig) \
             and hasattr(getattr(system, "params", None), "C_af"):
         from simgap.models.bicycle import STATE_NAMES, STATE_UNITS

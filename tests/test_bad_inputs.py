@@ -206,8 +206,7 @@ def test_speed_in_m_s_passes_the_unit_hypotheses(vx):
         system = make_system("bicycle")
         rec = recording_from_arrays("b.csv", rec.columns, system.columns.required)
         plausibility.check_recording(rec, system)
-        system.prepare(rec)
-        plausibility.check_prepared(rec, system)
+        plausibility.check_prepared(rec, system, system.prepare(rec))
 
 
 def test_sample_period_bound_comes_from_the_model():
@@ -269,8 +268,7 @@ def test_real_like_recordings_pass(arm):
     rec = recording_from_arrays("arm.csv", {c: arm[c].to_numpy() for c in arm.columns},
                                 system.columns.required)
     plausibility.check_recording(rec, system)
-    system.prepare(rec)
-    plausibility.check_prepared(rec, system)
+    plausibility.check_prepared(rec, system, system.prepare(rec))
 
 
 # -- envs ------------------------------------------------------------------------------

@@ -18,6 +18,8 @@ and ``import simgap.diagnosis`` stay cheap)::
   a system's canonical columns (defined in :mod:`simgap.recordings`);
   :func:`with_columns` attaches a map to a model, :func:`load_model_file` loads
   ``path.py:NAME``.
+* :class:`ResidualForm` and :class:`Prepared`: the interface of a residual form and the
+  immutable data its ``prepare`` returns (``Report.prepared``).
 """
 
 import sys
@@ -38,6 +40,8 @@ _LAZY = {
     "RecordingSchema": "simgap.recordings",
     "with_columns": "simgap.diagnosis.user_models",
     "load_model_file": "simgap.diagnosis.user_models",
+    "ResidualForm": "simgap.diagnosis.forms",
+    "Prepared": "simgap.diagnosis.forms",
 }
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _LAZY, eager=("generate",))

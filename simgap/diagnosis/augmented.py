@@ -16,7 +16,9 @@ envs, the identifiers and the diagnosis itself accept it:
   true_params). Its two-state ``f`` uses the commanded steering; a steering lag needs the
   road-wheel angle as an extra state and is carried by :meth:`plant_theta` and the env.
 * :class:`AugmentedMechanical` wraps any other mechanical model: M(q) and bias(q, dq) gain
-  the effects' terms.
+  the effects' terms. Its value is a :class:`~simgap.models.effects.Plant` too, of the
+  generic mechanical schema built from the model's joints and the vocabulary
+  (:func:`mechanical_schema`), so every model's ``augmented_model.json`` holds a plant.
 
 JSON layout (``save_model`` / ``load_model``)::
 
@@ -29,8 +31,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -41,9 +45,9 @@ from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, BicycleParams, body_derivative
-from simgap.models.effects import EffectInstance, Plant, PlantSchema
+from simgap.models.effects import EffectInstance, Folded, Plant, PlantSchema, channel_index
 from simgap.models.friction import FrictionParams
-from simgap.models.tires import MagicFormulaTire, magic_formula
+from simgap.models.tires import MagicFormulaTire, linear_force, magic_formula
 from simgap.outputs import write_file
 
 JOINTS = man.JOINTS
@@ -211,14 +215,11 @@ class AugmentedBicycle(BicycleNominal):
         x = np.asarray(x, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
         p = self.params
-        af = u[0] - (x[0] + p.lf * x[1]) / self.vx
-        ar = u[1] - (x[0] - p.lr * x[1]) / self.vx
-        fzf, fzr = p.axle_loads()
-        forces = []
-        for alpha, ca, fz, mu in ((af, p.C_af, fzf, self.phys["mu"][0]),
-                                  (ar, p.C_ar, fzr, self.phys["mu"][1])):
-            forces.append(ca * alpha if mu is None else
-                          magic_formula(alpha, ca, fz, mu, self.tire.C, self.tire.E))
+        slips = bic.slip_angles(x[0], x[1], u[0], u[1], self.vx, p.lf, p.lr)
+        forces = [linear_force(alpha, ca) if mu is None else
+                  magic_formula(alpha, ca, fz, mu, self.tire.C, self.tire.E)
+                  for alpha, ca, fz, mu in zip(slips, (p.C_af, p.C_ar), p.axle_loads(),
+                                               self.phys["mu"], strict=True)]
         dvy, dr = body_derivative(x[0], x[1], forces[0], forces[1], self.vx, p.array)
         return np.array([dvy + self.phys["lateral_bias"], dr + self.phys["yaw_bias"]])
 
@@ -243,35 +244,167 @@ class AugmentedBicycle(BicycleNominal):
                 "plant": self.plant.to_dict()}
 
 
+@dataclass(frozen=True)
+class NoParams:
+    """The parameters of a mechanical model that declares no parameter dataclass."""
+
+
+def _fold_mechanical(plant: Plant) -> Folded:
+    """A user mechanical model has no plant kernel: it is simulated in numpy (no array)."""
+    return Folded(plant.params, np.zeros(0), {})
+
+
+def mechanical_schema(model: MechanicalNominalModel, channels: Sequence[str] | None = None
+                      ) -> PlantSchema:
+    """The generic mechanical :class:`~simgap.models.effects.PlantSchema` of any model.
+
+    Built from the model's joints and the mechanical vocabulary (the arm's effect
+    declarations in :mod:`simgap.models.manipulator`, whose units are templates filled per
+    joint): system = the model's name, parameters = its ``params`` dataclass (or
+    :class:`NoParams`), channels = its joints. Where the model holds its own per-joint
+    coefficients (``nominal_coefficients()``), the effects that correct them
+    (``FitSpec.corrects``) may be negative, as the diagnosis fits them. Options: the Coulomb
+    smoothing per joint (rad/s or m/s), the step ``dt`` (s) and the ``model_file``
+    (``path.py:NAME``) the model is read from.
+    """
+    n = len(model.input_names)
+    names = tuple(channels or getattr(model, "channel_names", ()) or ())
+    if len(names) != n:
+        names = tuple(f"joint{i + 1}" for i in range(n))
+    params = getattr(model, "params", None)
+    cls = type(params) if dataclasses.is_dataclass(params) else NoParams
+    own = getattr(model, "nominal_coefficients", None)
+    coefficients = own() if callable(own) else {}
+    vocabulary = []
+    for spec in man.VOCABULARY:
+        if spec.fit is None:
+            continue
+        signed = {coord for coord, coef in spec.fit.corrects if coef in coefficients}
+        if signed:
+            spec = dataclasses.replace(spec, params=tuple(
+                dataclasses.replace(p, bounds=(-math.inf, p.bounds[1])) if p.name in signed
+                else p for p in spec.params))
+        vocabulary.append(spec)
+    return PlantSchema(system=str(getattr(model, "name", None) or type(model).__name__),
+                       params_cls=cls, channels=names, vocabulary=tuple(vocabulary),
+                       options={"coulomb_sigma": (1e-3,) * n,
+                                "dt": float(getattr(model, "dt", 0.0) or 0.0),
+                                "model_file": None},
+                       fold=_fold_mechanical)
+
+
+def mechanical_plant(model: MechanicalNominalModel, effects: Sequence[Mapping[str, Any]], *,
+                     channels: Sequence[str] | None = None,
+                     coulomb_sigma: Sequence[float] | None = None,
+                     source: str | None = None) -> Plant:
+    """Vocabulary effects (report dicts) → the :class:`Plant` of a mechanical model."""
+    schema = mechanical_schema(model, channels)
+    params = getattr(model, "params", None)
+    options: dict[str, Any] = {"model_file": source}
+    if coulomb_sigma is not None:
+        options["coulomb_sigma"] = tuple(float(v) for v in coulomb_sigma)
+    return _plant(schema, params if dataclasses.is_dataclass(params) else NoParams(), effects,
+                  **options)
+
+
+def terms_of_plant(plant: Plant, effects: Mapping[str, Any]) -> list[tuple]:
+    """The fit terms (effect, channel index, lin, nl) that simulate a plant's instances.
+
+    Args:
+        plant: a mechanical plant (:func:`mechanical_plant`).
+        effects: the diagnosis effects by name (units do not matter for simulation).
+
+    Raises:
+        ModelFileError: an instance no vocabulary effect of this form can simulate (e.g. a
+            payload at a MuJoCo tip point: that model's augmented form is its corrected
+            MJCF), or parameters without an inverse map.
+    """
+    out = []
+    for inst in plant.effects:
+        effect = effects.get(inst.name)
+        if effect is None:
+            raise ModelFileError(f"augmented model: effect {inst.name!r} cannot be simulated "
+                                 f"on {plant.system} from its parameters")
+        context: dict[str, float] = {}
+        for need in effect.needs:   # e.g. Stribeck's Fs includes the same joint's Fc
+            other = plant.get(need, inst.channel)
+            if other is not None:
+                context.update(other.params)
+        try:
+            lin, nl = effect.coordinates(inst.params, context)
+        except ModelError as err:
+            raise ModelFileError(f"augmented model: {inst.name}: {err}") from None
+        out.append((effect, channel_index(plant.schema.channels, inst.channel), lin, nl))
+    return out
+
+
 class AugmentedMechanical(MechanicalNominalModel):
     """Any mechanical nominal model plus fitted effects: M + A(q), bias + b(q, dq).
 
+    Its value is a :class:`~simgap.models.effects.Plant` of the model's generic mechanical
+    schema (:func:`mechanical_schema`): the model's parameters plus the named effect
+    instances, serialised like the arm's and the bicycle's (``to_dict()["plant"]``).
+
     Args:
         base: the nominal model.
-        system: the prepared :class:`~simgap.diagnosis.systems.MechanicalSystem` (effect
-            context).
-        fitted: (effect, index, lin, nl) tuples from the fit.
-        effects: the reported effects (dicts as in the report's ``effects``), for the JSON.
+        system: the :class:`~simgap.diagnosis.systems.MechanicalSystem` form of ``base``
+            (the effects' context).
+        fitted: (effect, index, lin, nl) tuples from the fit, which simulate the model
+            exactly as the diagnosis compared it; ``None``: rebuilt from the plant's
+            instances (:func:`terms_of_plant`, e.g. when read back from a file).
+        coulomb_sigma: tanh smoothing velocity of the Coulomb/Stribeck terms per joint (rad/s
+            or m/s), as the diagnosis used it; default 1e-3 (or the plant's).
+        effects: the reported effects (dicts as in the report's ``effects``).
         source: ``path/to/model.py:NAME`` of a user model, so the JSON can be read back.
+        plant: the augmented plant; default: built from ``effects``.
 
     The state is taken to be (q, dq) (2n entries); ``f`` returns (dq, ddq).
     """
 
     def __init__(self, base: MechanicalNominalModel, system: Any,
-                 fitted: Sequence[tuple], *, effects: Sequence[Mapping[str, Any]] = (),
-                 source: str | None = None) -> None:
-        self.base, self.system, self.fitted = base, system, list(fitted)
-        self.effects = [dict(e) for e in effects]
-        self.source = source
+                 fitted: Sequence[tuple] | None = None, *,
+                 coulomb_sigma: Sequence[float] | None = None,
+                 effects: Sequence[Mapping[str, Any]] = (),
+                 source: str | None = None, plant: Plant | None = None) -> None:
+        self.base, self.system = base, system
+        if plant is None:
+            plant = mechanical_plant(base, effects, channels=system.channels,
+                                     coulomb_sigma=coulomb_sigma, source=source)
+        self._plant = plant
+        self.effects = [dict(e) for e in effects] if effects else \
+            [e.to_dict() for e in plant.effects]
+        self.coulomb_sigma = np.array(plant.options["coulomb_sigma"], dtype=np.float64)
+        self.coulomb_sigma.flags.writeable = False
+        self.context = system.effect_context(self.coulomb_sigma)
+        if fitted is None:
+            from simgap.diagnosis.effects import MECHANICAL_EFFECTS
+
+            fitted = terms_of_plant(plant, {e.name: e for e in MECHANICAL_EFFECTS})
+        self.fitted = list(fitted)
         self.name = f"{getattr(base, 'name', 'mechanical')}+effects"
         for attr in ("state_names", "state_units", "input_names", "input_units", "dt"):
             setattr(self, attr, getattr(base, attr))
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready description (read back by :func:`simgap.diagnosis.report.load_augmented`).
+    @property
+    def plant(self) -> Plant:
+        """The augmented plant (the model's parameters + the named effect instances)."""
+        return self._plant
 
-        Besides the reported effects it holds each fitted term in the fit's internal
-        coordinates (``fitted``) and the Coulomb smoothing, which rebuild the model exactly.
+    @property
+    def source(self) -> str | None:
+        """``path/to/model.py:NAME`` the nominal model is read from (``None``: not a file)."""
+        return self._plant.options["model_file"]
+
+    @source.setter
+    def source(self, spec: str | None) -> None:
+        self._plant = self._plant.with_options(model_file=spec)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (read back by :func:`simgap.diagnosis.load_augmented`).
+
+        The arm's and the bicycle's layout: the reported effects beside the augmented
+        :class:`~simgap.models.effects.Plant` (``"plant"``), plus ``"kind": "mechanical"``
+        and the model file that rebuilds the nominal model.
         """
         params = getattr(self.base, "params", None)
         base = ({f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
@@ -279,15 +412,13 @@ class AugmentedMechanical(MechanicalNominalModel):
         return {"schema": 1, "model": getattr(self.base, "name", "mechanical"),
                 "kind": "mechanical", "model_file": self.source, "base_params": base,
                 "effects": self.effects,
-                "fitted": [{"effect": e.name, "index": i,
-                            "lin": [float(v) for v in np.atleast_1d(lin)],
-                            "nl": [float(v) for v in np.atleast_1d(nl)]}
-                           for e, i, lin, nl in self.fitted],
-                "options": {"coulomb_sigma": [float(v) for v in self.system.coulomb_sigma],
-                            "dt": float(self.dt)}}
+                "options": {"coulomb_sigma": [float(v) for v in self.coulomb_sigma],
+                            "dt": float(self.dt)},
+                "plant": self.plant.to_dict()}
 
     def _split(self, q, dq):
-        a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq))
+        a, b = self.system._effect_split(self.fitted, np.atleast_2d(q), np.atleast_2d(dq),
+                                         self.context)
         return a[0], b[0]
 
     def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802

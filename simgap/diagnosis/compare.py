@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from simgap.diagnosis.forms import Prepared
+
 
 @dataclass
 class Comparison:
@@ -48,54 +50,63 @@ class Comparison:
     example: dict[str, np.ndarray]
 
 
-def _rollouts(system: Any, starts: np.ndarray, steps: int, effects: Sequence[tuple],
-              dt: float) -> np.ndarray:
-    """Simulate windows; return states of shape (steps + 1, n_windows, n_states)."""
-    s = system.state_at(starts)
+def simulate(form: Any, prepared: Prepared, starts: np.ndarray, steps: int,
+             effects: Sequence[tuple]) -> np.ndarray:
+    """Simulate windows open loop from the recorded states at rows ``starts``.
+
+    Each window replays the recorded inputs (RK4 at the sampling period, the form's
+    :meth:`~simgap.diagnosis.forms.ResidualForm.step`); a diverged state becomes NaN.
+
+    Returns:
+        States of shape (steps + 1, n_windows, n_states).
+    """
+    dt = prepared.dt
+    s = prepared.state_at(starts)
     out = [s]
     for k in range(steps):
-        s = system.step(s, starts + k, effects, dt)
+        s = form.step(prepared, s, starts + k, effects, dt)
         if not np.all(np.isfinite(s)):
             s = np.where(np.isfinite(s), s, np.nan)
         out.append(s)
     return np.stack(out)
 
 
-def compare(system: Any, effects: Sequence[tuple], t_split: float,
+def compare(system: Any, prepared: Prepared, effects: Sequence[tuple], t_split: float,
             horizon: float | None = None, example_windows: int | None = None
             ) -> Comparison:
     """Compare the nominal and the augmented model on the part after ``t_split``.
 
     Args:
-        system: the prepared system adapter.
+        system: the residual form.
+        prepared: the recording as the form prepared it.
         effects: fitted effects as (effect, index, lin, nl) tuples.
         t_split: start of the test part (s).
         horizon: simulation window (s); default the adapter's ``rollout_horizon``.
         example_windows: consecutive windows kept for the figure (default: all, the whole
             test part).
     """
-    t = system.t
+    t = prepared.t
     dt = float(t[1] - t[0])
     horizon = float(horizon or system.rollout_horizon)
-    edge = system.smoother.window
+    edge = prepared.smoother.window
     test = np.where(t >= t_split)[0]
     test = test[(test >= edge) & (test < len(t) - edge)]
-    meas = system.derivative_at(test)
+    meas = prepared.derivative_at(test)
     der = {}
     for label, eff in (("nominal", []), ("augmented", effects)):
-        pred = system.predicted_derivative(test, eff)
+        pred = system.derivative(prepared, test, eff)
         der[label] = [float(v) for v in np.sqrt(np.mean((pred - meas) ** 2, axis=0))]
     steps = max(1, int(round(horizon / dt)))
     starts = np.arange(test[0], test[-1] - steps, steps)
     if len(starts) == 0:
         starts = np.array([test[0]])
         steps = max(1, len(test) - 2)
-    rec = np.stack([system.state_at(starts + k) for k in range(steps + 1)])
-    scale = np.std(system.state_at(test), axis=0)
+    rec = np.stack([prepared.state_at(starts + k) for k in range(steps + 1)])
+    scale = np.std(prepared.state_at(test), axis=0)
     scale = np.where(scale > 0, scale, 1.0)
     roll, score, sims = {}, {}, {}
     for label, eff in (("nominal", []), ("augmented", effects)):
-        sim = _rollouts(system, starts, steps, eff, dt)
+        sim = simulate(system, prepared, starts, steps, eff)
         err = np.sqrt(np.nanmean((sim - rec) ** 2, axis=(0, 1)))
         roll[label] = [float(v) for v in err]
         score[label] = float(np.sqrt(np.mean((err / scale) ** 2)))

@@ -12,7 +12,7 @@ old name                   new home
 ``load_model``             :func:`simgap.diagnosis.user_models.load_model_file`
 ``with_columns`` and the   :mod:`simgap.diagnosis.user_models`
 other loader functions
-``ModelMechanicalSystem``  :mod:`simgap.diagnosis.systems`
+``ModelMechanicalSystem``  :class:`simgap.diagnosis.systems.MechanicalSystem`
 ``translate_unit``
 ``make_system``            :func:`simgap.diagnosis.pipeline.make_system`
 ``diagnose_custom``,       :func:`simgap.diagnosis.diagnose` (``model="path.py:NAME"``,
@@ -44,7 +44,7 @@ _MOVED = {
     "import_file": ("simgap.diagnosis.user_models", "import_file"),
     "load_model": ("simgap.diagnosis.user_models", "load_model_file"),
     "check_model": ("simgap.diagnosis.user_models", "check_model"),
-    "ModelMechanicalSystem": ("simgap.diagnosis.systems", "ModelMechanicalSystem"),
+    "ModelMechanicalSystem": ("simgap.diagnosis.systems", "MechanicalSystem"),
     "translate_unit": ("simgap.diagnosis.systems", "translate_unit"),
     "STRIBECK_MAX_SHARE": ("simgap.diagnosis.systems", "STRIBECK_MAX_SHARE"),
     "make_system": ("simgap.diagnosis.pipeline", "make_system"),

@@ -65,6 +65,7 @@ from scipy.optimize import least_squares, lsq_linear
 from simgap.diagnosis import identifiability, validation
 from simgap.diagnosis.effects import Effect
 from simgap.diagnosis.errormodel import autocorrelation_time
+from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.significance import likelihood_ratio
 
 #: Family-wise significance level of one selection round (divided by the terms tried).
@@ -190,35 +191,46 @@ class Fitter:
     """Fits terms to a residual (see the module docstring).
 
     Args:
-        system: the prepared system adapter (signals, smoother, effects' context).
-        residual: physical residual on the uniform grid, (N, C).
-        noise: noise floor per channel (C,).
+        system: the residual form (effects' context, locate variables).
+        prepared: the recording as the form prepared it (signals, smoother, residual (N, C)
+            and noise floor per channel (C,)).
         train_fraction: share of the usable rows before the outer test part (and share of
             its blocks that train).
-        mask: (N, C) fit mask (0 where a row must not be fitted, e.g. stick phases).
+        mask: (N, C) fit mask (0 where a row must not be fitted, e.g. stick phases);
+            default: the prepared ``fit_mask``.
         segments: (N,) segment label per grid row (a new label after each gap); None: one
             segment.
+
+    Raises:
+        TypeError: called the old way, ``Fitter(system, residual, noise, ...)``: the form
+            keeps no recording any more, pass its :class:`~simgap.diagnosis.forms.Prepared`.
     """
 
-    def __init__(self, system: Any, residual: np.ndarray, noise: np.ndarray,
+    def __init__(self, system: Any, prepared: Prepared,
                  train_fraction: float = TRAIN_FRACTION, mask: np.ndarray | None = None,
                  segments: np.ndarray | None = None) -> None:
+        if not isinstance(prepared, Prepared):
+            raise TypeError("Fitter(form, prepared, ...): pass the Prepared data that "
+                            "form.prepare(recording) returned (the form keeps no recording)")
         self.sys = system
+        self.prepared = prepared
+        residual, noise = prepared.residual, prepared.noise_rms
         self.n, self.c = residual.shape
-        self.mask = np.ones((self.n, self.c)) if mask is None else mask.astype(float)
+        mask = prepared.fit_mask if mask is None else mask
+        self.mask = np.asarray(mask).astype(float)
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
-        rows = validation.usable_rows(self.n, system.smoother.window, self.mask, seg)
-        self.split = validation.split_rows(system.t, rows, seg, train_fraction)
+        rows = validation.usable_rows(self.n, prepared.smoother.window, self.mask, seg)
+        self.split = validation.split_rows(prepared.t, rows, seg, train_fraction)
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
         self.t_split = self.split.t_split
         all_rows = np.arange(self.n)
-        self.sig = system.rows(all_rows)
-        self.sig0 = system.zero_derivatives(self.sig)
-        # what the effects may read (forms.EffectContext); a bare adapter is its own context
-        self.ctx = system.context() if hasattr(system, "context") else system
+        self.sig = prepared.rows(all_rows)
+        self.sig0 = prepared.zero_derivatives(self.sig)
+        # what the effects may read (forms.EffectContext)
+        self.ctx = system.context(prepared)
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
@@ -231,7 +243,7 @@ class Fitter:
         The regressor goes through the same filter as the residual; acceleration terms are
         already filtered derivatives and are not filtered again.
         """
-        e, sm = term.effect, self.sys.smoother
+        e, sm = term.effect, self.prepared.smoother
         if e.uses_derivatives:
             base = e(lin, nl, self.sig0, term.index, self.ctx)
             out = sm(base) + (e(lin, nl, self.sig, term.index, self.ctx) - base)
@@ -257,9 +269,8 @@ class Fitter:
         return cols, off
 
     def _context(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> None:
-        if hasattr(self.sys, "context"):
-            self.ctx = self.sys.context([(t.effect, t.index, None, nl)
-                                         for t, nl in zip(terms, nls, strict=True)])
+        self.ctx = self.sys.context(self.prepared, [(t.effect, t.index, None, nl)
+                                                    for t, nl in zip(terms, nls, strict=True)])
 
     def _design(self, terms: Sequence[Term], nls: Sequence[np.ndarray], rows: np.ndarray):
         self._context(terms, nls)
@@ -638,9 +649,8 @@ class Fitter:
 
     def _rates(self) -> dict[str, np.ndarray]:
         """Operating rates (velocities, yaw rate) that take both signs."""
-        get = getattr(self.sys, "locate_variables", None)
         out = {}
-        for name, (v, unit) in (get() if get else {}).items():
+        for name, (v, unit) in self.sys.locate_variables(self.prepared).items():
             if not str(unit).endswith("/s"):
                 continue
             v = np.asarray(v)[self.fit_rows]

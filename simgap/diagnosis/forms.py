@@ -1,25 +1,32 @@
 """Residual forms: the explicit interface between a recording, a nominal model and the fit.
 
-A *residual form* turns a recording into a physical residual per channel and simulates the
-nominal and augmented models for the comparison. Two forms exist (in
-:mod:`simgap.diagnosis.systems`), one per kind of residual, not per built-in vs user model:
+A *residual form* turns a recording into immutable :class:`Prepared` data (the filtered
+signals, the physical residual per channel and its noise floor) and simulates the nominal
+and augmented models over that data for the comparison. The form itself keeps nothing from
+a recording: one form serves any number of recordings, and every consumer (the
+:class:`~simgap.diagnosis.fit.Fitter`, :func:`~simgap.diagnosis.compare.compare`, the
+report, the MJCF correction) receives the :class:`Prepared` value explicitly. Its arrays are
+read-only.
+
+Two forms exist (in :mod:`simgap.diagnosis.systems`), one per kind of residual, not per
+built-in vs user model:
 
 * mechanical inverse dynamics, tau − M(q) ddq − bias(q, dq) (N·m per revolute joint, N per
-  prismatic one; units from the model): ``MechanicalSystem`` (the two-link arm, with its
-  fast kernels and the payload effect) and ``ModelMechanicalSystem`` (any other
-  :class:`~simgap.models.base.MechanicalNominalModel`);
+  prismatic one; columns and units from the model): ``MechanicalSystem``, for the
+  two-link arm (with its fast kernels and payload effect) and any other
+  :class:`~simgap.models.base.MechanicalNominalModel` alike;
 * the axle-force residual Delta = K⁻¹ g of the bicycle: ``BicycleSystem``.
 
-:class:`ResidualForm` states the interface the pipeline, :class:`~simgap.diagnosis.fit.Fitter`
-and :func:`~simgap.diagnosis.compare.compare` use. Effects do not see the form: an effect's
+:class:`ResidualForm` states the interface. Effects do not see the form: an effect's
 contribution receives an immutable :class:`EffectContext` holding only what effects may read
 (the Coulomb smoothing, gravity torques, axle stiffnesses, …), built by
-:meth:`ResidualForm.context` for one set of terms. Coupling between terms (a steering lag
-goes through the Magic Formula of a tire_saturation term on the same axle) is carried by the
-context, not by state stored on the form.
+:meth:`ResidualForm.context` for one prepared recording and one set of terms. Coupling
+between terms (a steering lag goes through the Magic Formula of a tire_saturation term on
+the same axle) is carried by the context, not by state stored on the form.
 
-Not done yet (issue 12): ``prepare`` still keeps the filtered signals on the form (one form
-object per recording) instead of returning them as immutable data.
+:func:`mass_split` is the one place where a model's terms are split into the part
+proportional to the state derivatives (mass-type terms: A(x)·dx/dt) and the rest (b(x)), which
+both forms use to solve for dx/dt.
 """
 
 from __future__ import annotations
@@ -31,7 +38,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from simgap.diagnosis.residual import ResidualResult, Smoother
+from simgap.diagnosis.residual import ResidualResult
 from simgap.recordings import Recording
 
 #: A fitted or candidate term as the forms see it: (effect, channel index or None, linear
@@ -84,6 +91,131 @@ class EffectContext:
                 object.__setattr__(self, name, value)
 
 
+def _read_only(a: Any) -> np.ndarray:
+    """``a`` as a read-only float array (a view: no copy unless ``a`` is not an array)."""
+    arr = np.asarray(a)
+    view = arr.view()
+    view.flags.writeable = False
+    return view
+
+
+def _frozen_map(m: Mapping[str, Any]) -> Mapping[str, np.ndarray]:
+    return MappingProxyType({k: _read_only(v) for k, v in m.items()})
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Prepared(ResidualResult):
+    """One recording as a residual form prepared it: immutable data, no form state.
+
+    Besides the :class:`~simgap.diagnosis.residual.ResidualResult` fields (time grid,
+    residual, noise floor, filtered ``signals``, ``raw`` columns, smoother, column noise),
+    all arrays read-only:
+
+    Attributes:
+        inputs: the logged inputs as held over each sample, scaled (N, n_inputs), e.g. N·m
+            or rad; what the rollouts replay.
+        held_input: the hold-averaged inputs (N, n) an input delay shifts (mechanical
+            forms), or ``None``.
+        coulomb_sigma: tanh smoothing velocity of Coulomb/Stribeck terms per joint (rad/s
+            or m/s), or ``None`` (bicycle).
+        fit_mask: rows (N, C) whose residual is determinate enough to fit and score.
+        state: the filtered recorded state per row (N, n_states), e.g. (q, dq) or (vy, r).
+        state_derivative: the measured derivative of the compared states per row.
+        derivatives: the signals that are state derivatives, as (signal name, column or
+            ``None`` for a 1-D signal); what :meth:`zero_derivatives` and
+            :func:`mass_split` set.
+    """
+
+    inputs: np.ndarray
+    held_input: np.ndarray | None = None
+    coulomb_sigma: np.ndarray | None = None
+    fit_mask: np.ndarray
+    state: np.ndarray
+    state_derivative: np.ndarray
+    derivatives: tuple[tuple[str, int | None], ...]
+    #: Memo of pure functions of this data (lagged steering, tip-point regressors): values
+    #: derived from the read-only arrays, never observable state.
+    memo: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        for name in ("t", "residual", "noise_rms", "inputs", "held_input", "coulomb_sigma",
+                     "fit_mask", "state", "state_derivative"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _read_only(value))
+        object.__setattr__(self, "signals", _frozen_map(self.signals))
+        object.__setattr__(self, "raw", _frozen_map(self.raw))
+        object.__setattr__(self, "column_noise", MappingProxyType(dict(self.column_noise)))
+
+    @property
+    def n(self) -> int:
+        """Number of rows of the uniform grid."""
+        return len(self.t)
+
+    @property
+    def dt(self) -> float:
+        """Sample period of the uniform grid (s)."""
+        return float(self.smoother.dt)
+
+    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """Filtered signals at rows ``idx`` (new arrays), plus ``idx``."""
+        out = {k: v[idx] for k, v in self.signals.items()}
+        out["idx"] = idx
+        return out
+
+    def zero_derivatives(self, sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Signals with the state derivatives set to zero (splits mass-type terms)."""
+        out = dict(sig)
+        for key in dict.fromkeys(k for k, _ in self.derivatives):
+            out[key] = np.zeros_like(sig[key])
+        return out
+
+    def state_at(self, idx: np.ndarray) -> np.ndarray:
+        """The filtered recorded state at rows ``idx``."""
+        return self.state[idx]
+
+    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
+        """The measured state derivative at rows ``idx``."""
+        return self.state_derivative[idx]
+
+
+def mass_split(terms: Sequence[Term], sig0: Mapping[str, np.ndarray],
+               derivatives: Sequence[tuple[str, int | None]], n_channels: int,
+               ctx: EffectContext) -> tuple[np.ndarray, np.ndarray]:
+    """Split terms' contributions into A(x)·dx/dt + b(x) (the mass-type part and the rest).
+
+    Args:
+        terms: (effect, channel index, lin, nl) of one model; terms acting on the input
+            (``on_input``, e.g. an input delay) are left out: the form shifts the input.
+        sig0: signals at the evaluated rows with every state derivative zero.
+        derivatives: the derivative signals as (name, column or ``None``), in the order of
+            A's columns.
+        n_channels: residual channels C.
+        ctx: the effects' context.
+
+    Returns:
+        ``a`` of shape (N, C, len(derivatives)) and ``b`` of shape (N, C), channel units.
+    """
+    n = len(next(iter(sig0.values())))
+    b = np.zeros((n, n_channels))
+    a = np.zeros((n, n_channels, len(derivatives)))
+    for eff, idx, lin, nl in terms:
+        if getattr(eff, "on_input", False):
+            continue
+        base = eff(lin, nl, sig0, idx, ctx)
+        b += base
+        if eff.uses_derivatives:
+            for j, (key, col) in enumerate(derivatives):
+                unit = dict(sig0)
+                if col is None:
+                    unit[key] = np.ones(n)
+                else:
+                    unit[key] = np.zeros(sig0[key].shape)
+                    unit[key][:, col] = 1.0
+                a[:, :, j] += eff(lin, nl, unit, idx, ctx) - base
+    return a, b
+
+
 @runtime_checkable
 class ResidualForm(Protocol):
     """The interface of a residual form (see the module docstring).
@@ -96,8 +228,6 @@ class ResidualForm(Protocol):
         derivative_names, derivative_units: the compared derivatives.
         rollout_horizon: default comparison window (s).
         columns: the recording columns the form reads (canonical names).
-        t: the uniform time grid after :meth:`prepare` (s).
-        smoother: the derivative filter after :meth:`prepare`.
     """
 
     name: str
@@ -109,39 +239,23 @@ class ResidualForm(Protocol):
     derivative_units: tuple[str, ...]
     rollout_horizon: float
     columns: Any
-    t: np.ndarray
-    smoother: Smoother
 
-    def prepare(self, rec: Recording) -> ResidualResult:
-        """Filter the recording, compute the residual and its noise floor."""
+    def prepare(self, rec: Recording) -> Prepared:
+        """Filter the recording; the residual, its noise floor and the signals, immutable."""
 
-    def candidates(self) -> list[tuple[Any, int | None, str]]:
+    def candidates(self, prepared: Prepared) -> list[tuple[Any, int | None, str]]:
         """Vocabulary effects to test: (effect, channel index or None, channel name)."""
 
-    def context(self, terms: Sequence[Term] = ()) -> EffectContext:
+    def context(self, prepared: Prepared, terms: Sequence[Term] = ()) -> EffectContext:
         """The effects' context for one model made of ``terms``."""
 
-    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
-        """Filtered signals at rows ``idx`` (plus ``idx``)."""
-
-    def zero_derivatives(self, sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Signals with the state derivatives set to zero (splits mass-type terms)."""
-
-    def fit_mask(self) -> np.ndarray:
-        """Rows (N, C) whose residual is determinate enough to fit and score."""
-
-    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+    def locate_variables(self, prepared: Prepared) -> dict[str, tuple[np.ndarray, str]]:
         """Variables the residual may depend on: name -> (values on the grid, unit)."""
 
-    def state_at(self, idx: np.ndarray) -> np.ndarray:
-        """Filtered recorded state at rows ``idx``."""
-
-    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
-        """Measured state derivative at rows ``idx``."""
-
-    def predicted_derivative(self, idx: np.ndarray, effects: Sequence[Term]) -> np.ndarray:
+    def derivative(self, prepared: Prepared, idx: np.ndarray,
+                   effects: Sequence[Term]) -> np.ndarray:
         """Model derivative (nominal + ``effects``) at the recorded states and inputs."""
 
-    def step(self, s: np.ndarray, k: np.ndarray, effects: Sequence[Term],
-             dt: float) -> np.ndarray:
+    def step(self, prepared: Prepared, s: np.ndarray, k: np.ndarray,
+             effects: Sequence[Term], dt: float) -> np.ndarray:
         """One RK4 step of a batch of states with the recorded inputs of rows ``k``."""

@@ -1,15 +1,20 @@
 """Reading ``augmented_model.json`` back, for every model the diagnosis accepts.
 
 ``write_report`` saves the augmented model (nominal + named effects) of every diagnosis as
-``augmented_model.json``. Two layouts exist, both schema 1:
+``augmented_model.json``. Every model's file (schema 1) holds the augmented
+:class:`~simgap.models.effects.Plant` (``"plant"``) beside the reported effects:
 
-* built-in systems (``"model": "manipulator2dof"`` or ``"bicycle"``): base parameters plus
-  the reported effects (:mod:`simgap.diagnosis.augmented`, unchanged);
-* any other mechanical model (``"kind": "mechanical"``, e.g. a ``path.py:NAME`` axis): the
-  model file, the reported effects, and each fitted term in the fit's own coordinates
-  (``fitted``) with the Coulomb smoothing, which rebuild the augmented model exactly.
+* built-in systems (``"model": "manipulator2dof"`` or ``"bicycle"``): the system's plant
+  (:mod:`simgap.diagnosis.augmented`);
+* any other mechanical model (``"kind": "mechanical"``, e.g. a ``path.py:NAME`` axis): a
+  plant of the generic mechanical schema (the model's joints and the vocabulary,
+  :func:`~simgap.diagnosis.augmented.mechanical_schema`) and the model file that rebuilds
+  the nominal model. The fit coordinates of each term follow from the reported parameters
+  (``FitSpec.coordinates``).
 
-:func:`load_augmented` reads either.
+:func:`load_augmented` reads these and the layouts written before the plant: built-in
+models without ``"plant"``, and user models whose terms were saved in the fit's own
+coordinates (``"fitted"``).
 """
 
 from __future__ import annotations
@@ -22,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from simgap.errors import ModelFileError
+from simgap.errors import ModelError, ModelFileError
+from simgap.models.effects import Plant
 
 
 def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
@@ -39,34 +45,56 @@ def augmented_from_dict(d: Mapping[str, Any], model: Any = None) -> Any:
     Raises:
         ModelFileError: incomplete or unknown description, or no way to get the model.
     """
-    from simgap.diagnosis.augmented import AugmentedMechanical, model_from_dict
+    from simgap.diagnosis.augmented import (
+        AugmentedMechanical,
+        mechanical_schema,
+        model_from_dict,
+    )
 
     if d.get("kind") != "mechanical":
         return model_from_dict(d)
-    from simgap.diagnosis.effects import VOCABULARY
-    from simgap.diagnosis.systems import ModelMechanicalSystem
+    from simgap.diagnosis.systems import MechanicalSystem
     from simgap.diagnosis.user_models import load_model_file
 
     try:
+        source = d.get("model_file") or (d.get("plant") or {}).get("options", {}).get(
+            "model_file")
         if model is None:
-            if not d.get("model_file"):
+            if not source:
                 raise ModelFileError(f"augmented model of {d.get('model')!r} names no model "
                                      "file: pass the nominal model (load_augmented(path, "
                                      "model=...))")
-            model = load_model_file(d["model_file"])
-        system = ModelMechanicalSystem(model)
-        system.coulomb_sigma = np.asarray(d["options"]["coulomb_sigma"], dtype=np.float64)
-        fitted = []
-        for term in d["fitted"]:
-            if term["effect"] not in VOCABULARY:
-                raise ModelFileError(f"augmented model: unknown effect {term['effect']!r}")
-            fitted.append((VOCABULARY[term["effect"]], term["index"],
-                           np.asarray(term["lin"], dtype=np.float64),
-                           np.asarray(term["nl"], dtype=np.float64)))
+            model = load_model_file(source)
+        system = MechanicalSystem(model)
+        if "plant" in d:   # today's layout: the augmented Plant
+            try:
+                plant = Plant.from_dict(d["plant"], mechanical_schema(model, system.channels))
+            except ModelError as err:
+                raise ModelFileError(f"augmented model: {err}") from None
+            if source and not plant.options["model_file"]:
+                plant = plant.with_options(model_file=source)
+            return AugmentedMechanical(model, system, plant=plant,
+                                       effects=d.get("effects", ()))
+        return _from_fitted(d, model, system, source)
     except (KeyError, TypeError) as err:
         raise ModelFileError(f"augmented model description is incomplete: {err}") from None
-    return AugmentedMechanical(model, system, fitted, effects=d.get("effects", ()),
-                               source=d.get("model_file"))
+
+
+def _from_fitted(d: Mapping[str, Any], model: Any, system: Any, source: str | None) -> Any:
+    """The layout written before the plant (issue 12): each term in fit coordinates."""
+    from simgap.diagnosis.augmented import AugmentedMechanical
+    from simgap.diagnosis.effects import VOCABULARY
+
+    sigma = np.asarray(d["options"]["coulomb_sigma"], dtype=np.float64)
+    fitted = []
+    for term in d["fitted"]:
+        if term["effect"] not in VOCABULARY:
+            raise ModelFileError(f"augmented model: unknown effect {term['effect']!r}")
+        fitted.append((VOCABULARY[term["effect"]], term["index"],
+                       np.asarray(term["lin"], dtype=np.float64),
+                       np.asarray(term["nl"], dtype=np.float64)))
+    return AugmentedMechanical(model, system, fitted, coulomb_sigma=sigma,
+                               effects=d.get("effects", ()), source=source)
 
 
 def load_augmented(path: str | os.PathLike, model: Any = None) -> Any:

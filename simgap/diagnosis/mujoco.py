@@ -28,14 +28,15 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from simgap.diagnosis.effects import PAYLOAD, VOCABULARY, Effect
-from simgap.diagnosis.forms import EffectContext
-from simgap.diagnosis.systems import ModelMechanicalSystem
+from simgap.diagnosis.forms import EffectContext, Prepared
+from simgap.diagnosis.systems import MechanicalSystem
 from simgap.diagnosis.user_models import column_map_of, with_columns
 from simgap.errors import CustomModelError
 from simgap.models.mujoco import MujocoNominal, from_mjcf
@@ -80,7 +81,7 @@ def _payload_at(point: tuple[str, int, np.ndarray]) -> Effect:
                   lin_upper=PAYLOAD.lin_upper, uses_derivatives=True, fn=fn)
 
 
-class MujocoSystem(ModelMechanicalSystem):
+class MujocoSystem(MechanicalSystem):
     """Diagnosis adapter of a :class:`~simgap.models.mujoco.MujocoNominal` (module docstring)."""
 
     def __init__(self, model: MujocoNominal) -> None:
@@ -90,39 +91,34 @@ class MujocoSystem(ModelMechanicalSystem):
         #: id(payload effect) → its tip point (name, body id, position in the body frame).
         self.payload_points = {id(e): p for e, p in zip(self.payload_effects, self.points,
                                                         strict=True)}
-        self._payload_cache: dict[tuple, np.ndarray] = {}
 
-    def candidates(self) -> list[tuple[Effect, int | None, str]]:
+    def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
         """Joint vocabulary (model units), payload per tip point, input delay per joint."""
-        out = super().candidates()
+        out = super().candidates(prepared)
         out += [(e, None, "arm") for e in self.payload_effects]
         out += [(INPUT_DELAY, j, self.channels[j]) for j in range(self.n_channels)]
         return out
 
-    def prepare(self, rec):
-        """Filter, compute the residual (and the held input the delay effect shifts)."""
-        res = super().prepare(rec)
-        self._payload_cache.clear()
-        return res
-
-    def context(self, terms: Sequence[tuple] = ()) -> MujocoEffectContext:
+    def context(self, prepared: Prepared, terms: Sequence[tuple] = ()) -> MujocoEffectContext:
         """The mechanical context with the tip-point regressor."""
-        base = super().context(terms)
+        base = super().context(prepared, terms)
         fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
-        return MujocoEffectContext(**fields, payload_at=self.payload_regressor_at)
+        return MujocoEffectContext(**fields,
+                                   payload_at=partial(self.payload_regressor_at, prepared))
 
-    def payload_regressor_at(self, point, sig) -> np.ndarray:
-        """Joint efforts per kg at ``point`` for the rows of ``sig`` (cached on the grid)."""
-        full = "idx" in sig and len(sig["idx"]) == len(self.t)
+    def payload_regressor_at(self, prepared: Prepared, point, sig) -> np.ndarray:
+        """Joint efforts per kg at ``point`` for the rows of ``sig`` (memoised on the grid)."""
+        full = "idx" in sig and len(sig["idx"]) == prepared.n
+        memo = prepared.memo.setdefault("payload_at", {})
         key = (point[0], bool(np.any(sig["ddq"])))
-        if full and key in self._payload_cache:
-            return self._payload_cache[key]
+        if full and key in memo:
+            return memo[key]
         out = self.model.point_regressor(point[1], point[2], sig["q"], sig["dq"], sig["ddq"])
         if full:
-            self._payload_cache[key] = out
+            memo[key] = out
         return out
 
-    def fit_mask(self) -> np.ndarray:
+    def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray) -> np.ndarray:
         """Rows (N, n) where each joint slides for sure, in MuJoCo's sense too.
 
         MuJoCo's ``frictionloss`` is a soft constraint: it pushes back with exactly its
@@ -137,8 +133,8 @@ class MujocoSystem(ModelMechanicalSystem):
         dmax = m.dof_solimp[self.model.dof, 1]
         timeconst = np.where(ref[:, 0] > 0, ref[:, 0], 0.02)
         b = 2.0 / (dmax * timeconst)
-        soft = np.abs(self.sig["dq"]) >= 2.0 * np.abs(self.sig["ddq"]) / b
-        return super().fit_mask() & soft
+        soft = np.abs(sig["dq"]) >= 2.0 * np.abs(sig["ddq"]) / b
+        return super()._fit_mask(sig, sigma) & soft
 
 
 # --------------------------------------------------------------------------- loading
@@ -239,11 +235,12 @@ def attach_corrected_mjcf(report: Any, xml: str | Path) -> None:
               if id(e) in system.payload_points}
     text, notes = corrected_mjcf(xml, system.model, fitted, points)
     corrected = compile_text(text, Path(xml))
-    cols = {"t": system.t}
+    prepared = report.prepared
+    cols = {"t": prepared.t}
     for j, name in enumerate(system.model.joint_names):
-        cols[f"q_{name}"] = system.sig["q"][:, j]
-        cols[f"dq_{name}"] = system.sig["dq"][:, j]
-        cols[f"tau_{name}"] = system._u_hold[:, j]
+        cols[f"q_{name}"] = prepared.signals["q"][:, j]
+        cols[f"dq_{name}"] = prepared.signals["dq"][:, j]
+        cols[f"tau_{name}"] = prepared.inputs[:, j]
     t_split = report.data["fit"]["split"]["test"][0]
     joints = list(system.model.joint_names)
     before = holdout_rmse(system.model.mj_model, cols, t_split, joints=joints)

@@ -42,8 +42,9 @@ from simgap.diagnosis.augmented import AugmentedBicycle, AugmentedManipulator, A
 from simgap.diagnosis.compare import Comparison, compare
 from simgap.diagnosis.effects import needs_context, nominal_corrections, report_params
 from simgap.diagnosis.fit import Fitter, Selection, Term
+from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.shares import explained_section
-from simgap.diagnosis.systems import BicycleSystem, ModelMechanicalSystem
+from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.diagnosis.validation import NO_INFORMATION, gap_segments
@@ -79,7 +80,9 @@ class Report:
     Attributes:
         data: the ``report.json`` content (``spec/diagnosis.md`` schema 1).
         augmented: the augmented nominal model (nominal + named effects).
-        system: the prepared adapter (signals, residual context).
+        system: the residual form (adapter) used.
+        prepared: the recording as the form prepared it (immutable: signals, residual,
+            noise floor, fit mask).
         residual: residual on the uniform grid (N, C), channel units.
         noise: noise floor per channel.
         selection: the selection record (history, warnings).
@@ -91,6 +94,7 @@ class Report:
     data: dict[str, Any]
     augmented: Any
     system: Any
+    prepared: Prepared
     residual: np.ndarray
     noise: np.ndarray
     selection: Selection
@@ -198,7 +202,7 @@ def _adapter(model: Any, recorded: set[str] | None) -> Any:
     if recorded is not None:
         n = len(model.input_names)
         velocities = all(c in recorded for c in tuple(model.obs_names)[n:2 * n])
-    return ModelMechanicalSystem(model, velocities=velocities)
+    return MechanicalSystem(model, velocities=velocities)
 
 
 def _read(recording: Recording | str | os.PathLike, model: Any,
@@ -377,19 +381,18 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         res = system.prepare(rec)
     except ValueError as err:
         raise RecordingError(str(err).splitlines()[0]) from None
-    plausibility.check_prepared(rec, system)
+    plausibility.check_prepared(rec, system, res)
     stats = locate.channel_stats(system.channels, res.residual, res.noise_rms)
-    mask = system.fit_mask()
+    mask = res.fit_mask
     segment = getattr(res, "segment", None)
     if segment is None:   # rows interpolated across a gap are not data: never fitted
         segment, inside = gap_segments(rec.t, res.t)
         mask = mask * ~inside[:, None]
     try:
-        fitter = Fitter(system, res.residual, res.noise_rms, train_fraction,
-                        mask=mask, segments=segment)
+        fitter = Fitter(system, res, train_fraction, mask=mask, segments=segment)
     except ValueError as err:
         raise RecordingError(f"{rec.name}: {err}") from None
-    candidates = [Term(e, j, ch) for e, j, ch in system.candidates()]
+    candidates = [Term(e, j, ch) for e, j, ch in system.candidates(res)]
     sel = fitter.select(candidates)
     entries, preds, fitted, sse_all = _effect_entries(fitter, sel, system)
     sig_idx = [i for i, s in enumerate(stats) if s.significant] or list(range(fitter.c))
@@ -400,7 +403,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
     noise_share = float(len(fitter.test) * len(sig_idx)) / base if base > 0 else 1.0
     significant = any(s.significant for s in stats) or bool(entries)
     segs, regs = [], []
-    variables = system.locate_variables()
+    variables = system.locate_variables(res)
     # what the named effects leave over (stick phases masked as in the fit): the spec asks
     # for "where it sits" of what no term explains, so it is located too
     remainder = (fitter.r - sel.fit.total(fitter.n, fitter.c)) * fitter.mask
@@ -417,19 +420,20 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             regs += [dict(reg, of="unexplained", text=f"unexplained remainder: {reg['text']}")
                      for reg in locate.regions(s.channel, system.channel_units[i],
                                                remainder[:, i], variables)]
-    comp = compare(system, fitted, fitter.t_split, horizon)
+    comp = compare(system, res, fitted, fitter.t_split, horizon)
     if isinstance(system, BicycleSystem):
-        vx_mean = float(np.mean(system.sig["vx"]))
+        vx_mean = float(np.mean(res.signals["vx"]))
         augmented = AugmentedBicycle([{"effect": e["effect"], "channel": e["channel"],
                                        "params": e["parameters"]} for e in entries],
-                                     system.params, vx=max(vx_mean, 1.01), dt=system.smoother.dt)
+                                     system.params, vx=max(vx_mean, 1.01), dt=res.dt)
     elif isinstance(system.model, ManipulatorNominal):
         augmented = AugmentedManipulator([{"effect": e["effect"], "channel": e["channel"],
                                            "params": e["parameters"]} for e in entries],
-                                         system.model.params, sigma=system.coulomb_sigma,
-                                         dt=system.smoother.dt)
+                                         system.model.params, sigma=res.coulomb_sigma,
+                                         dt=res.dt)
     else:
-        augmented = AugmentedMechanical(system.model, system, fitted, effects=[
+        augmented = AugmentedMechanical(system.model, system, fitted,
+                                        coulomb_sigma=res.coulomb_sigma, effects=[
             {"effect": e["effect"], "channel": e["channel"], "params": e["parameters"]}
             for e in entries])
     t = res.t
@@ -481,16 +485,17 @@ def _run(rec: Recording, system: Any, horizon: float | None,
                        "recorded output is the input"),
         },
         "processing": {
-            "sample_period_s": float(system.smoother.dt),
+            "sample_period_s": float(res.smoother.dt),
             "resampled_to_uniform_grid": bool(res.resampled),
-            "savgol_window_samples": int(system.smoother.window),
+            "savgol_window_samples": int(res.smoother.window),
             "column_noise_std": {k: float(v) for k, v in res.column_noise.items()},
         },
     }
     data["explained"] = explained_section(  # additive shares (simgap.diagnosis.shares)
         r_te[:, sig_idx], [(p[fitter.test] * fitter.w)[:, sig_idx] for p in preds], entries,
         [system.channels[i] for i in sig_idx], min(1.0, noise_share))
-    return Report(data=data, augmented=augmented, system=system, residual=res.residual,
+    return Report(data=data, augmented=augmented, system=system, prepared=res,
+                  residual=res.residual,
                   noise=res.noise_rms, selection=sel, comparison=comp,
                   fitted_pred=sel.fit.total(fitter.n, fitter.c), term_preds=preds)
 

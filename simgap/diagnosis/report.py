@@ -20,7 +20,7 @@ this module leaves a notebook's inline backend alone):
 * ``identifiability.png``: correlation matrix of the named parameters (two or more).
 
 Fitted contributions are drawn only where they were fitted: samples the fit leaves out (a
-joint's stick phases, ``system.fit_mask()``) are NaN, so the curve has a gap there instead of
+joint's stick phases, ``prepared.fit_mask``) are NaN, so the curve has a gap there instead of
 dropping to zero. Legends sit beside the axes, never on the data; figures of long recordings
 grow wider (:func:`figure_width`).
 """
@@ -120,9 +120,9 @@ def figure_width(duration: float) -> float:
 def fitted_for_plot(report) -> np.ndarray:
     """The fitted contribution (N, C) with NaN where the fit left a channel's samples out."""
     pred = np.array(report.fitted_pred, dtype=float)
-    mask_fn = getattr(report.system, "fit_mask", None)
-    if mask_fn is not None:
-        mask = np.asarray(mask_fn(), dtype=bool)
+    prepared = getattr(report, "prepared", None)
+    if prepared is not None:
+        mask = np.asarray(prepared.fit_mask, dtype=bool)
         if mask.shape == pred.shape:
             pred[~mask] = np.nan
     return pred
@@ -138,7 +138,7 @@ def _thin(n: int) -> np.ndarray:
 
 def residual_time_figure(report):
     """``residual_time.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
-    sys, t = report.system, report.system.t
+    sys, t = report.system, report.prepared.t
     nc = len(sys.channels)
     fig = Figure(figsize=(figure_width(float(t[-1] - t[0])), 2.6 * nc))
     axes = fig.subplots(nc, 1, sharex=True, squeeze=False)
@@ -167,12 +167,12 @@ def residual_time_figure(report):
 def residual_vs_figure(report):
     """``residual_vs_variable.png``'s figure (a ``matplotlib.figure.Figure``, no pyplot state)."""
     sys = report.system
-    variables = sys.locate_variables()
+    variables = sys.locate_variables(report.prepared)
     nc = len(sys.channels)
     fig = Figure(figsize=(6 * nc, 3.8))
     axes = fig.subplots(1, nc, squeeze=False)
     regions = report.data["mismatch"]["regions"]
-    idx = _thin(len(sys.t))
+    idx = _thin(report.prepared.n)
     fitted = fitted_for_plot(report)
     for i, ax in enumerate(axes[0]):
         ch = sys.channels[i]

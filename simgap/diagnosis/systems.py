@@ -12,10 +12,13 @@ for the comparison. Two adapters exist:
 * :class:`BicycleSystem`: :class:`~simgap.models.bicycle.BicycleNominal` with per-sample
   vx; residual = axle-force deviation Delta = K⁻¹(dx/dt − f(x, u; vx)) (N).
 
-An adapter is used for one recording: :meth:`prepare` stores the recording's filtered
-signals on it. The noise floor of each channel is the propagated sensor noise
-(:func:`simgap.diagnosis.residual.noise_floor`) combined with :data:`NUMERICAL_FLOOR` times the
-channel's modelled force/torque RMS.
+An adapter keeps nothing from a recording: :meth:`prepare` returns the recording's filtered
+signals, residual and noise floor as immutable :class:`~simgap.diagnosis.forms.Prepared`
+data, which every later step receives explicitly. Slip angles, the RK4 stages and the
+mass-type split are the ``models/`` and :mod:`~simgap.diagnosis.forms` functions. The noise
+floor of each channel is the propagated sensor noise
+(:func:`simgap.diagnosis.residual.noise_floor`) combined with :data:`NUMERICAL_FLOOR` times
+the channel's modelled force/torque RMS.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -31,9 +35,8 @@ from numba import njit
 from scipy.signal import lfilter
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
-from simgap.diagnosis.forms import EffectContext
+from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.residual import (
-    ResidualResult,
     Smoother,
     choose_window,
     derivative_gain,
@@ -44,8 +47,9 @@ from simgap.diagnosis.residual import (
 from simgap.errors import CustomModelError
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
-from simgap.models.bicycle import BicycleNominal, axle_loads, state_derivative
+from simgap.models.bicycle import BicycleNominal, axle_loads, slip_angles, state_derivative
 from simgap.models.effects import format_unit
+from simgap.models.integrators import rk4_batch_step
 from simgap.models.tires import MagicFormulaTire
 from simgap.recordings import Recording
 
@@ -90,6 +94,8 @@ STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
+#: Effects of the vehicle's vocabulary that another effect needs (its coupling declaration).
+_NEEDED = frozenset(n for e in BICYCLE_EFFECTS for n in e.needs)
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
 
 
@@ -132,39 +138,73 @@ def _manip_mass_batch(la, q):  # pragma: no cover - compiled
 
 
 class MechanicalSystem:
-    """Adapter for a :class:`MechanicalNominalModel` (see the module docstring).
+    """The mechanical residual form, for any :class:`MechanicalNominalModel`.
+
+    One form for the built-in arm and every user model (``path.py:NAME``, MJCF); what
+    differs comes from the model or the data:
+
+    * columns, channels and units come from the model: the canonical columns
+      (``obs_names`` = positions + velocities, ``input_names``), positions/velocities in
+      ``obs_units``, efforts in ``residual_units`` (N for a prismatic joint), and every
+      vocabulary parameter's unit is written for the joint (viscous b in N·s/m, Coulomb Fc
+      in N, …); velocities are read when recorded and derived from positions otherwise;
+    * the vocabulary is scaled to the data as each effect declares (``FitSpec.for_data``):
+      the Stribeck velocity vs is bounded by a share of the joint's largest recorded speed
+      (the vocabulary's bounds, in rad/s, mean nothing for a slider moving at 0.1 m/s; see
+      ``tests/diagnosis/test_real_emps.py``), and whole-arm ``gravity_mismatch`` is not
+      tested when the model has no gravity torque on the recorded positions. A model whose
+      vocabulary bounds are written for it says ``vocabulary_scaled_to_data = False`` (the
+      two-link arm);
+    * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
+      ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
+      them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
+      nominal value): "the nominal damping is 15 % too high" is an answer;
+    * the two-link arm (``ManipulatorNominal``) gets fast batched kernels and its own
+      effects (payload at the tip, cubic stiffness).
 
     Args:
-        model: the nominal model; ``ManipulatorNominal`` gets fast batched kernels and the
-            payload effect, any other mechanical model is evaluated sample by sample through
-            its ``M`` and ``bias``.
-        columns: column map; default: the manipulator's spec columns.
-        name: model name for the report.
-        channels: channel names (default ``joint1..n``).
+        model: the nominal model.
+        columns: the recording columns; default: the model's canonical ones.
+        name: model name for the report (default: the model's ``name``).
+        channels: channel names (default: the model's ``channel_names``, else
+            ``joint1..n``).
+        velocities: whether the recording holds the velocities (canonical ``dq`` columns);
+            ``None``: recorded unless the model's column map leaves them out. Only with the
+            default ``columns``.
     """
 
     kind = "mechanical"
 
-    def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns = MANIPULATOR_COLUMNS,
-                 name: str | None = None, channels: Sequence[str] | None = None) -> None:
+    def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns | None = None,
+                 name: str | None = None, channels: Sequence[str] | None = None, *,
+                 velocities: bool | None = None) -> None:
+        if columns is None:
+            q, dq, u = _mechanical_names(model)
+            if velocities is None:  # decided by the model's declaration and column map
+                recorded = set(getattr(model, "recording_columns", ()))
+                cmap = getattr(model, "column_map", None)
+                velocities = all(c in recorded and (cmap is None or c in cmap.columns)
+                                 for c in dq)
+            columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
         self.model = model
         self.columns = columns
         self.n_channels = len(columns.q)
         if len(columns.u) != self.n_channels or (columns.dq and len(columns.dq) !=
                                                  self.n_channels):
             raise ValueError("column map needs one q, (dq) and u column per joint")
-        self.name = name or getattr(model, "name", "mechanical")
+        self.name = name or _label(model)
+        if channels is None:
+            own = tuple(getattr(model, "channel_names", ()) or ())
+            channels = own if len(own) == self.n_channels else None
         self.channels = tuple(channels or (f"joint{i + 1}" for i in range(self.n_channels)))
-        units = getattr(model, "residual_units", None)
-        self.channel_units = tuple(units) if units and len(units) == self.n_channels else \
-            ("N·m",) * self.n_channels
+        self.position_units, self.channel_units = _joint_units(model, self.n_channels)
         self.is_manipulator = isinstance(model, man.ManipulatorNominal)
-        self.coulomb_sigma = np.full(self.n_channels, 1e-3)
+        self.scaled_to_data = bool(getattr(model, "vocabulary_scaled_to_data", True))
         self.state_names = tuple(columns.q) + tuple(columns.dq or
                                                      (f"d{c}" for c in columns.q))
-        self.state_units = ("rad",) * self.n_channels + ("rad/s",) * self.n_channels
+        self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
         self.derivative_names = tuple(f"dd{c}" for c in columns.q)
-        self.derivative_units = ("rad/s²",) * self.n_channels
+        self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
         self.rollout_horizon = 0.2
 
     # -- model quantities --------------------------------------------------------------
@@ -196,18 +236,33 @@ class MechanicalSystem:
         heavy = man.ManipulatorNominal(dataclasses.replace(p, payload=p.payload + 1.0))
         return self.inverse_dynamics(q, dq, ddq, heavy) - self.inverse_dynamics(q, dq, ddq)
 
-    def candidates(self) -> list[tuple[Effect, int | None, str]]:
-        """Vocabulary effects to test: (effect, channel index or None, channel name)."""
-        out: list[tuple[Effect, int | None, str]] = []
-        for e in MECHANICAL_EFFECTS:
-            if e.scope == "joint":
-                out += [(e, j, self.channels[j]) for j in range(self.n_channels)]
+    def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
+        """Vocabulary effects to test: (effect, channel index or None, channel name).
+
+        In the model's units, as corrections of its own terms where it has them, and
+        scaled to the data by each effect's ``for_data`` (see the class docstring).
+        """
+        base: list[tuple[Effect, int | None, str]] = []
+        for e in MECHANICAL_EFFECTS + (ARM_EFFECTS if self.is_manipulator else ()):
+            if e.scope == "joint":  # the arm's own effects (payload, cubic stiffness) last
+                base += [(e, j, self.channels[j]) for j in range(self.n_channels)]
             else:
-                out.append((e, None, "arm"))
-        if self.is_manipulator:  # the arm's own effects (payload, cubic stiffness)
-            for e in ARM_EFFECTS:
-                out += [(e, j, self.channels[j]) for j in range(self.n_channels)] \
-                    if e.scope == "joint" else [(e, None, "arm")]
+                base.append((e, None, "arm"))
+        own = getattr(self.model, "nominal_coefficients", None)
+        coefficients = own() if callable(own) else {}
+        sig, ctx = prepared.signals, self.context(prepared)
+        out = []
+        for effect, j, channel in base:
+            k = 0 if j is None else j
+            effect = effect.in_units(effort=self.channel_units[k],
+                                     position=self.position_units[k])
+            if j is not None and coefficients:  # signed corrections of the nominal's terms
+                effect = effect.with_nominal(coefficients, j)
+            if self.scaled_to_data and effect.for_data is not None:
+                effect = effect.for_data(effect, sig, j, ctx)
+                if effect is None:
+                    continue
+            out.append((effect, j, channel))
         return out
 
     # -- signals and residual ----------------------------------------------------------
@@ -227,11 +282,12 @@ class MechanicalSystem:
     def _residual(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
         return sig["u"] - self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"])
 
-    def prepare(self, rec: Recording) -> ResidualResult:
-        """Filter the recording, compute the residual (N·m) and its noise floor."""
+    def prepare(self, rec: Recording) -> Prepared:
+        """Filter the recording; the residual (N·m or N), its noise floor, the signals."""
         c = self.columns
         t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
                                                     if k != c.t})
+        raw = {k: np.array(v, dtype=np.float64) for k, v in raw.items()}  # owned, frozen below
         dt = float(t[1] - t[0])
         diff_cols = [raw[k] for k in (c.dq or c.q)]
         window = choose_window(diff_cols, dt, deriv=1 if c.dq else 2)
@@ -247,138 +303,119 @@ class MechanicalSystem:
         vel_noise = [col_noise[k] for k in c.dq] if c.dq else [
             col_noise[k] / dt for k in c.q]
         gain0 = derivative_gain(window, 0, dt)
-        self.coulomb_sigma = np.maximum(2.0 * np.asarray(vel_noise) * gain0, 1e-4)
-        self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
+        sigma = np.maximum(2.0 * np.asarray(vel_noise) * gain0, 1e-4)
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
-        self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
-        self.held_input = _held(self._u_hold, c.input_hold)  # what an input delay shifts
-        return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
-                              smoother=sm, resampled=resampled, column_noise=col_noise)
+        u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
+        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw, smoother=sm,
+                        resampled=resampled, column_noise=col_noise, inputs=u_hold,
+                        held_input=_held(u_hold, c.input_hold),  # what an input delay shifts
+                        coulomb_sigma=sigma, fit_mask=self._fit_mask(sig, sigma),
+                        state=np.concatenate([sig["q"], sig["dq"]], axis=1),
+                        state_derivative=sig["ddq"],
+                        derivatives=tuple(("ddq", j) for j in range(self.n_channels)))
 
-    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
-        """Signals at the given rows (plus ``idx``)."""
-        out = {k: v[idx] for k, v in self.sig.items()}
-        out["idx"] = idx
-        return out
-
-    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
-        """Effects' context: Coulomb smoothing, gravity, payload regressor, held input.
-
-        The time grid and the held input serve the input delay. Mechanical terms do not
-        couple, so ``terms`` changes nothing.
-        """
-        return EffectContext(n_channels=self.n_channels, coulomb_sigma=self.coulomb_sigma,
-                             gravity=self.gravity,
-                             payload_regressor=self.payload_regressor if self.is_manipulator
-                             else None, t=getattr(self, "t", None),
-                             held_input=getattr(self, "held_input", None))
-
-    def fit_mask(self) -> np.ndarray:
+    def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray) -> np.ndarray:
         """Rows (N, n) whose joint residual is determinate: |dq| above 3 Coulomb widths.
 
         Below it the joint may be stuck, where friction takes any value up to breakaway and
         its sign is unknowable from the velocity; those samples are left out of fitting and
         scoring for that joint (they stay in the located residual).
         """
-        return np.abs(self.sig["dq"]) >= STICK_WIDTHS * self.coulomb_sigma
+        return np.abs(sig["dq"]) >= STICK_WIDTHS * sigma
 
-    @staticmethod
-    def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Signals with accelerations set to zero (splits mass-type effect terms)."""
-        out = dict(sig)
-        out["ddq"] = np.zeros_like(sig["ddq"])
-        return out
+    def effect_context(self, coulomb_sigma: np.ndarray | None = None, *,
+                       t: np.ndarray | None = None,
+                       held_input: np.ndarray | None = None) -> EffectContext:
+        """Effects' context from its data: Coulomb smoothing, gravity, payload regressor.
 
-    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+        Args:
+            coulomb_sigma: smoothing velocity per joint (rad/s or m/s); default 1e-3.
+            t: the time grid (s), for an input delay.
+            held_input: the hold-averaged inputs, for an input delay.
+        """
+        sigma = np.full(self.n_channels, 1e-3) if coulomb_sigma is None else coulomb_sigma
+        return EffectContext(n_channels=self.n_channels, coulomb_sigma=sigma,
+                             gravity=self.gravity,
+                             payload_regressor=self.payload_regressor if self.is_manipulator
+                             else None, t=t, held_input=held_input)
+
+    def context(self, prepared: Prepared, terms: Sequence[tuple] = ()) -> EffectContext:
+        """Effects' context: Coulomb smoothing, gravity, payload regressor, held input.
+
+        The time grid and the held input serve the input delay. Mechanical terms do not
+        couple, so ``terms`` changes nothing.
+        """
+        return self.effect_context(prepared.coulomb_sigma, t=prepared.t,
+                                   held_input=prepared.held_input)
+
+    def locate_variables(self, prepared: Prepared) -> dict[str, tuple[np.ndarray, str]]:
         """Variables the residual may depend on: name -> (values on the grid, unit)."""
-        out = {}
+        sig, out = prepared.signals, {}
         for j, c in enumerate(self.columns.q):
-            out[c] = (self.sig["q"][:, j], "rad")
+            out[c] = (sig["q"][:, j], self.state_units[j])
         for j, c in enumerate(self.state_names[self.n_channels:]):
-            out[c] = (self.sig["dq"][:, j], "rad/s")
+            out[c] = (sig["dq"][:, j], self.state_units[self.n_channels + j])
         for j, c in enumerate(self.derivative_names):
-            out[c] = (self.sig["ddq"][:, j], "rad/s²")
+            out[c] = (sig["ddq"][:, j], self.derivative_units[j])
         return out
 
     # -- simulation --------------------------------------------------------------------
-    def _effect_split(self, effects, q, dq):
+    def _effect_split(self, effects, q, dq, ctx: EffectContext):
         """tau_d(q, dq, ddq) = A(q) ddq + b(q, dq) of the fitted effects, per row."""
-        n = q.shape[0]
-        nc = self.n_channels
-        zero = {"q": q, "dq": dq, "ddq": np.zeros((n, nc))}
-        b = np.zeros((n, nc))
-        ctx = self.context(effects)
-        a = np.zeros((n, nc, nc))
-        for eff, idx, lin, nl in effects:
-            if getattr(eff, "on_input", False):  # acts on the input (see _delayed)
-                continue
-            base = eff(lin, nl, zero, idx, ctx)
-            b += base
-            if eff.uses_derivatives:
-                for j in range(nc):
-                    unit = np.zeros((n, nc))
-                    unit[:, j] = 1.0
-                    a[:, :, j] += eff(lin, nl, {"q": q, "dq": dq, "ddq": unit}, idx, ctx) - base
-        return a, b
+        zero = {"q": q, "dq": dq, "ddq": np.zeros((q.shape[0], self.n_channels))}
+        return mass_split(effects, zero, tuple(("ddq", j) for j in range(self.n_channels)),
+                          self.n_channels, ctx)
 
-    def acceleration(self, q, dq, u, effects) -> np.ndarray:
+    def acceleration(self, q, dq, u, effects, ctx: EffectContext | None = None) -> np.ndarray:
         """Ddq (rad/s²) of the nominal (+ fitted effects): (M + A) ddq = u − bias − b."""
         z = np.zeros_like(q)
         rhs = u - self.inverse_dynamics(q, dq, z)
         mass = self.mass(q)
         if effects:
-            a, b = self._effect_split(effects, q, dq)
+            a, b = self._effect_split(effects, q, dq, ctx or self.effect_context())
             mass = mass + a
             rhs = rhs - b
         return np.linalg.solve(mass, rhs[..., None])[..., 0]
 
-    def state_at(self, idx: np.ndarray) -> np.ndarray:
-        """Return the filtered recorded state (q, dq) at rows ``idx``."""
-        return np.concatenate([self.sig["q"][idx], self.sig["dq"][idx]], axis=1)
-
-    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
-        """Measured velocity-state derivative (ddq) at rows ``idx``."""
-        return self.sig["ddq"][idx]
-
-    def _delayed(self, effects, rows: np.ndarray) -> tuple[list, np.ndarray | None]:
+    def _delayed(self, prepared: Prepared, effects, rows: np.ndarray
+                 ) -> tuple[list, np.ndarray | None]:
         """(effects without input delays, per-row held input with the delays or None)."""
         delays = [(j, float(nl[0])) for eff, j, lin, nl in effects
                   if getattr(eff, "on_input", False)]
         if not delays:
             return list(effects), None
-        u = self.held_input.copy()
+        t, held = prepared.t, prepared.held_input
+        u = held.copy()
         for j, tau in delays:
-            u[:, j] = np.interp(self.t - tau, self.t, self.held_input[:, j])
+            u[:, j] = np.interp(t - tau, t, held[:, j])
         rest = [e for e in effects if not getattr(e[0], "on_input", False)]
         return rest, u[rows]
 
-    def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
+    def derivative(self, prepared: Prepared, idx: np.ndarray, effects) -> np.ndarray:
         """Model ddq at the recorded states and (delayed, if an effect says) inputs."""
-        rest, u = self._delayed(effects, idx)
+        sig = prepared.signals
+        ctx = self.context(prepared, effects)
+        rest, u = self._delayed(prepared, effects, idx)
         if u is not None:
-            u_late = self.sig["u"][idx] - (self.held_input[idx] - u)
-            return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], u_late, rest)
-        return self.acceleration(self.sig["q"][idx], self.sig["dq"][idx], self.sig["u"][idx],
-                                 effects)
+            u_late = sig["u"][idx] - (prepared.held_input[idx] - u)
+            return self.acceleration(sig["q"][idx], sig["dq"][idx], u_late, rest, ctx)
+        return self.acceleration(sig["q"][idx], sig["dq"][idx], sig["u"][idx], effects, ctx)
 
-    def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
+    def step(self, prepared: Prepared, s: np.ndarray, k: np.ndarray, effects,
+             dt: float) -> np.ndarray:
         """One RK4 step of a batch of states s = (q, dq) with the recorded input of rows k.
 
         The input is delayed where an input-delay effect says.
         """
         nc = self.n_channels
-        effects, delayed = self._delayed(effects, k)
-        u = self._u_hold[k] if delayed is None else delayed
+        ctx = self.context(prepared, effects)
+        effects, delayed = self._delayed(prepared, effects, k)
+        u = prepared.inputs[k] if delayed is None else delayed
 
         def deriv(x):
             return np.concatenate([x[:, nc:], self.acceleration(x[:, :nc], x[:, nc:], u,
-                                                                effects)], axis=1)
-        k1 = deriv(s)
-        k2 = deriv(s + 0.5 * dt * k1)
-        k3 = deriv(s + 0.5 * dt * k2)
-        k4 = deriv(s + dt * k3)
-        return s + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-
+                                                                effects, ctx)], axis=1)
+        return rk4_batch_step(deriv, s, dt)
 
 
 class BicycleSystem:
@@ -405,21 +442,37 @@ class BicycleSystem:
         self.derivative_names = ("dvy", "dr")
         self.derivative_units = ("m/s²", "rad/s²")
         self.rollout_horizon = 1.0
-        self._lag_cache: dict[tuple[int, float], np.ndarray] = {}
 
-    def candidates(self) -> list[tuple[Effect, int | None, str]]:
-        """Vocabulary effects to test (steering lag only on axles whose command varies)."""
-        out: list[tuple[Effect, int | None, str]] = []
+    def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
+        """Vocabulary effects to test, adapted to the data by each effect's ``for_data``.
+
+        The steering lag is tested only on axles whose command varies. That rule is still
+        written here: its declaration belongs with the steering_lag entry of
+        :mod:`simgap.models.bicycle` (``FitSpec.for_data``), which a change on the models
+        side makes.
+        """
+        base: list[tuple[Effect, int | None, str]] = []
         for e in BICYCLE_EFFECTS:
             if e.scope == "axle":
                 for i in range(2):
                     key = ("delta_f", "delta_r")[i]
-                    if e.name == "steering_lag" and np.ptp(self.sig[key]) < 1e-6:
+                    if e.name == "steering_lag" and np.ptp(prepared.signals[key]) < 1e-6:
                         continue
-                    out.append((e, i, self.channels[i]))
+                    base.append((e, i, self.channels[i]))
             else:
-                out.append((e, None, "vehicle"))
+                base.append((e, None, "vehicle"))
+        ctx = self.context(prepared)
+        out = []
+        for e, i, channel in base:
+            if e.for_data is not None:
+                e = e.for_data(e, prepared.signals, i, ctx)
+                if e is None:
+                    continue
+            out.append((e, i, channel))
         return out
+
+    def _slips(self, vy, r, delta_f, delta_r, vx) -> tuple[np.ndarray, np.ndarray]:
+        return slip_angles(vy, r, delta_f, delta_r, vx, self.params.lf, self.params.lr)
 
     def _signals(self, raw: Mapping[str, np.ndarray], sm: Smoother) -> dict[str, np.ndarray]:
         c = self.columns
@@ -430,9 +483,8 @@ class BicycleSystem:
         sig = {"vy": sm(raw[vy_c]), "r": sm(raw[r_c]), "dvy": sm(raw[vy_c], 1),
                "dr": sm(raw[r_c], 1), "vx": np.maximum(vx, 1.0 + 1e-6), "delta_f": u[:, 0],
                "delta_r": u[:, 1]}
-        lf, lr = self.params.lf, self.params.lr
-        sig["alpha_f"] = sig["delta_f"] - (sig["vy"] + lf * sig["r"]) / sig["vx"]
-        sig["alpha_r"] = sig["delta_r"] - (sig["vy"] - lr * sig["r"]) / sig["vx"]
+        sig["alpha_f"], sig["alpha_r"] = self._slips(sig["vy"], sig["r"], sig["delta_f"],
+                                                     sig["delta_r"], sig["vx"])
         return sig
 
     def _residual(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -442,11 +494,12 @@ class BicycleSystem:
         g = dx - state_derivative(x, u, self.params, sig["vx"])
         return g @ self.K_inv.T
 
-    def prepare(self, rec: Recording) -> ResidualResult:
-        """Filter the recording, compute Delta = K⁻¹ g (N) and its noise floor."""
+    def prepare(self, rec: Recording) -> Prepared:
+        """Filter the recording; Delta = K⁻¹ g (N), its noise floor and the signals."""
         c = self.columns
         t, raw, resampled = uniform_grid(rec[c.t], {k: rec[k] for k in c.required
                                                     if k != c.t})
+        raw = {k: np.array(v, dtype=np.float64) for k, v in raw.items()}  # owned, frozen below
         if np.any(raw[c.vx] <= 1.0):
             i = int(np.argmax(raw[c.vx] <= 1.0))
             raise ValueError(f"{rec.name}: column {c.vx!r} row {i + 1}: vx = {raw[c.vx][i]!r} "
@@ -461,122 +514,93 @@ class BicycleSystem:
         tire = np.stack([self.stiffness[0] * sig["alpha_f"], self.stiffness[1] * sig["alpha_r"]],
                         axis=1)  # modelled (linear) axle forces, N
         floor = np.hypot(floor, NUMERICAL_FLOOR * np.sqrt(np.mean(tire**2, axis=0)))
-        self.t, self.sig, self.raw, self.smoother = t, sig, raw, sm
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
-        self._u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
-        self._lag_cache = {}
-        return ResidualResult(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
-                              smoother=sm, resampled=resampled, column_noise=col_noise)
+        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw, smoother=sm,
+                        resampled=resampled, column_noise=col_noise,
+                        inputs=np.stack([raw[k] for k in c.u], axis=1) * scale,
+                        fit_mask=np.ones((len(t), 2), dtype=bool),  # every row is fitted
+                        state=np.stack([sig["vy"], sig["r"]], axis=1),
+                        state_derivative=np.stack([sig["dvy"], sig["dr"]], axis=1),
+                        derivatives=(("dvy", None), ("dr", None)))
 
-    def lagged_steering(self, axle: int, tau: float) -> np.ndarray:
+    @staticmethod
+    def lagged_steering(prepared: Prepared, axle: int, tau: float) -> np.ndarray:
         """Road-wheel angle (rad) of a first-order lag tau (s) behind the command.
 
         Exact for a command held over each sample (ZOH): the raw logged command is filtered,
-        not the hold-averaged one (which already lags by half a sample).
+        not the hold-averaged one (which already lags by half a sample). Memoised on the
+        prepared data (a pure function of it).
         """
+        memo = prepared.memo.setdefault("lagged_steering", {})
         key = (axle, round(float(tau), 12))
-        if key not in self._lag_cache:
-            d = self._u_hold[:, axle]
-            a = np.exp(-self.smoother.dt / max(tau, 1e-9))
-            self._lag_cache[key] = lfilter([0.0, 1.0 - a], [1.0, -a], d - d[0]) + d[0]
-            if len(self._lag_cache) > 64:
-                self._lag_cache.pop(next(iter(self._lag_cache)))
-        return self._lag_cache[key]
+        if key not in memo:
+            d = prepared.inputs[:, axle]
+            a = np.exp(-prepared.smoother.dt / max(tau, 1e-9))
+            out = lfilter([0.0, 1.0 - a], [1.0, -a], d - d[0]) + d[0]
+            out.flags.writeable = False
+            memo[key] = out
+            if len(memo) > 64:
+                memo.pop(next(iter(memo)))
+        return memo[key]
 
-    def rows(self, idx: np.ndarray) -> dict[str, np.ndarray]:
-        """Signals at the given rows (plus ``idx``)."""
-        out = {k: v[idx] for k, v in self.sig.items()}
-        out["idx"] = idx
-        return out
-
-    def context(self, terms: Sequence[tuple] = ()) -> EffectContext:
+    def context(self, prepared: Prepared, terms: Sequence[tuple] = ()) -> EffectContext:
         """Effects' context for one model made of ``terms``.
 
         Args:
-            terms: (effect, axle index, lin, nl) of one model; the mu of its
-                tire_saturation terms per axle is what the steering lag composes with.
+            prepared: the prepared recording (its lag filter input).
+            terms: (effect, axle index, lin, nl) of one model. The terms other effects
+                ``need`` (the vocabulary's coupling: a steering lag needs the
+                tire_saturation of its axle) give their nonlinear value per axle
+                (``axle_mu``), which the needing effect composes with.
         """
         return EffectContext(n_channels=2, stiffness=self.stiffness, loads=self.loads,
                              tire=self.tire, K_inv=self.K_inv,
-                             lagged_steering=self.lagged_steering,
+                             lagged_steering=partial(self.lagged_steering, prepared),
                              axle_mu={i: float(nl[0]) for eff, i, _lin, nl in terms
-                                      if eff.name == "tire_saturation"})
+                                      if eff.name in _NEEDED and len(nl)})
 
-    def fit_mask(self) -> np.ndarray:
-        """All rows are used for fitting (N, 2)."""
-        return np.ones((len(self.t), 2), dtype=bool)
-
-    @staticmethod
-    def zero_derivatives(sig: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Signals with dvy, dr set to zero (splits mass-type effect terms)."""
-        out = dict(sig)
-        out["dvy"] = np.zeros_like(sig["dvy"])
-        out["dr"] = np.zeros_like(sig["dr"])
-        return out
-
-    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
+    def locate_variables(self, prepared: Prepared) -> dict[str, tuple[np.ndarray, str]]:
         """Variables the residual may depend on: name -> (values, unit)."""
-        s = self.sig
+        s = prepared.signals
         return {"alpha_f": (s["alpha_f"], "rad"), "alpha_r": (s["alpha_r"], "rad"),
                 "vy": (s["vy"], "m/s"), "r": (s["r"], "rad/s"),
                 "delta_f": (s["delta_f"], "rad"), "ay": (s["dvy"] + s["vx"] * s["r"], "m/s²"),
                 "vx": (s["vx"], "m/s"), "dr": (s["dr"], "rad/s²")}
 
     # -- simulation --------------------------------------------------------------------
-    def _deriv(self, x, idx, effects, u):
-        vx = self.sig["vx"][idx]
+    def _deriv(self, prepared: Prepared, x, idx, effects, u, ctx: EffectContext):
+        vx = prepared.signals["vx"][idx]
         f = state_derivative(x, u, self.params, vx)
         if not effects:
             return f
-        lf, lr = self.params.lf, self.params.lr
+        af, ar = self._slips(x[:, 0], x[:, 1], u[:, 0], u[:, 1], vx)
         sig = {"vy": x[:, 0], "r": x[:, 1], "vx": vx, "delta_f": u[:, 0], "delta_r": u[:, 1],
-               "alpha_f": u[:, 0] - (x[:, 0] + lf * x[:, 1]) / vx,
-               "alpha_r": u[:, 1] - (x[:, 0] - lr * x[:, 1]) / vx, "idx": idx,
+               "alpha_f": af, "alpha_r": ar, "idx": idx,
                "dvy": np.zeros(len(idx)), "dr": np.zeros(len(idx))}
-        ctx = self.context(effects)
         k = self.model.K
-        b = np.zeros((len(idx), 2))
-        d = np.zeros((len(idx), 2, 2))
-        for eff, i, lin, nl in effects:
-            base = eff(lin, nl, sig, i, ctx)
-            b += base
-            if eff.uses_derivatives:
-                for j, key in enumerate(("dvy", "dr")):
-                    s2 = dict(sig)
-                    s2[key] = np.ones(len(idx))
-                    d[:, :, j] += eff(lin, nl, s2, i, ctx) - base
+        d, b = mass_split(effects, sig, prepared.derivatives, 2, ctx)
         # dx = f + K (b + D dx)  →  (I − K D) dx = f + K b
         lhs = np.eye(2)[None] - np.einsum("ij,njk->nik", k, d)
         return np.linalg.solve(lhs, (f + b @ k.T)[..., None])[..., 0]
 
-
-    def state_at(self, idx: np.ndarray) -> np.ndarray:
-        """Return the filtered recorded state (vy, r) at rows ``idx``."""
-        return np.stack([self.sig["vy"][idx], self.sig["r"][idx]], axis=1)
-
-    def derivative_at(self, idx: np.ndarray) -> np.ndarray:
-        """Measured (dvy, dr) at rows ``idx``."""
-        return np.stack([self.sig["dvy"][idx], self.sig["dr"][idx]], axis=1)
-
-    def predicted_derivative(self, idx: np.ndarray, effects) -> np.ndarray:
+    def derivative(self, prepared: Prepared, idx: np.ndarray, effects) -> np.ndarray:
         """Model (dvy, dr) at the recorded (filtered) states and inputs."""
-        u = np.stack([self.sig["delta_f"][idx], self.sig["delta_r"][idx]], axis=1)
-        return self._deriv(self.state_at(idx), idx, effects, u)
+        sig = prepared.signals
+        u = np.stack([sig["delta_f"][idx], sig["delta_r"][idx]], axis=1)
+        return self._deriv(prepared, prepared.state_at(idx), idx, effects, u,
+                           self.context(prepared, effects))
 
-    def step(self, s: np.ndarray, k: np.ndarray, effects, dt: float) -> np.ndarray:
+    def step(self, prepared: Prepared, s: np.ndarray, k: np.ndarray, effects,
+             dt: float) -> np.ndarray:
         """One RK4 step of a batch of (vy, r) with the recorded input and vx of rows k."""
-        u = self._u_hold[k]
-        k1 = self._deriv(s, k, effects, u)
-        k2 = self._deriv(s + 0.5 * dt * k1, k, effects, u)
-        k3 = self._deriv(s + 0.5 * dt * k2, k, effects, u)
-        k4 = self._deriv(s + dt * k3, k, effects, u)
-        return s + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        u = prepared.inputs[k]
+        ctx = self.context(prepared, effects)
+        return rk4_batch_step(lambda x: self._deriv(prepared, x, k, effects, u, ctx), s, dt)
 
 
 # --------------------------------------------------------------------------- adapters
-#: A Stribeck velocity above this share of the joint's largest recorded speed is not a
-#: low-speed effect any more: it would only reshape the Coulomb/viscous curve.
-STRIBECK_MAX_SHARE = 0.25
+#: Kept for one release: the bound now lives with the Stribeck vocabulary entry.
+STRIBECK_MAX_SHARE = man.STRIBECK_MAX_SHARE
 
 
 def _mechanical_names(model: Any) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
@@ -618,86 +642,21 @@ def translate_unit(unit: str, position: str, effort: str) -> str:
     return format_unit(_REVOLUTE_TEMPLATES.get(unit, unit), effort=effort, position=position)
 
 
-class ModelMechanicalSystem(MechanicalSystem):
-    """:class:`~simgap.diagnosis.systems.MechanicalSystem` for any mechanical model.
-
-    Differences from the base adapter, all driven by the model or the data:
-
-    * units come from the model: positions/velocities from ``obs_units``, efforts from
-      ``residual_units`` (N for a prismatic joint), and every vocabulary parameter's unit is
-      rewritten accordingly (viscous b in N·s/m, Coulomb Fc in N, …);
-    * the Stribeck velocity vs is bounded by :data:`STRIBECK_MAX_SHARE` of the joint's
-      largest recorded speed (and its start grid scales with it): the bounds of the
-      vocabulary, in rad/s, mean nothing for a slider moving at 0.1 m/s, and a "Stribeck"
-      term with vs near the top speed only reshapes Coulomb + viscous friction (on the EMPS
-      data it then displaces the Coulomb term; see ``tests/diagnosis/test_real_emps.py``);
-    * whole-arm ``gravity_mismatch`` is not tested when the model has no gravity torque on
-      the recorded positions;
-    * where the model declares its own per-joint terms (``nominal_coefficients()``, e.g.
-      ``{"damping": (...), "frictionloss": (...)}``), the vocabulary entries that correct
-      them (:attr:`~simgap.models.effects.FitSpec.corrects`) may go negative down to −(the
-      nominal value): "the nominal damping is 15 % too high" is an answer.
-
-    Args:
-        model: the nominal model.
-        name: model name for the report (default: the model's ``name``).
-        velocities: whether the recording holds the velocities (canonical ``dq`` columns);
-            ``None``: recorded unless the model's column map leaves them out.
-    """
-
-    def __init__(self, model: MechanicalNominalModel, name: str | None = None, *,
-                 velocities: bool | None = None) -> None:
-        q, dq, u = _mechanical_names(model)
-        if velocities is None:  # decided by the model's declaration and column map
-            recorded = set(getattr(model, "recording_columns", ()))
-            cmap = getattr(model, "column_map", None)
-            velocities = all(c in recorded and (cmap is None or c in cmap.columns) for c in dq)
-        columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
-        channels = tuple(getattr(model, "channel_names", ()) or ())
-        super().__init__(model, columns=columns, name=name or _label(model),
-                         channels=channels if len(channels) == len(q) else None)
-        self.position_units, effort = _joint_units(model, len(q))
-        self.channel_units = effort
-        self.state_units = self.position_units + tuple(f"{p}/s" for p in self.position_units)
-        self.derivative_units = tuple(f"{p}/s²" for p in self.position_units)
-
-    def candidates(self) -> list[tuple[Effect, int | None, str]]:
-        """List the base candidates with model units and data-scaled Stribeck bounds."""
-        out = []
-        vmax = np.max(np.abs(self.sig["dq"]), axis=0)
-        gravity = np.abs(self.gravity(self.sig["q"])).max() if self.sig["q"].size else 0.0
-        own = getattr(self.model, "nominal_coefficients", None)
-        coefficients = own() if callable(own) else {}
-        for effect, j, channel in super().candidates():
-            if effect.name == "gravity_mismatch" and gravity == 0.0:
-                continue
-            k = 0 if j is None else j
-            effect = effect.in_units(effort=self.channel_units[k],
-                                     position=self.position_units[k])
-            if j is not None and coefficients:  # signed corrections of the nominal's terms
-                effect = effect.with_nominal(coefficients, j)
-            changes: dict[str, Any] = {}
-            if effect.name == "stribeck_friction" and j is not None:
-                hi = max(STRIBECK_MAX_SHARE * float(vmax[j]), 2e-3)
-                changes["nl_bounds"] = ((1e-3 * hi, hi),)
-                changes["nl_grid"] = (tuple(hi * np.array([0.05, 0.15, 0.4, 0.9])),)
-            out.append((dataclasses.replace(effect, **changes), j, channel))
-        return out
-
-    def locate_variables(self) -> dict[str, tuple[np.ndarray, str]]:
-        """Positions, velocities and accelerations with the model's units."""
-        out = super().locate_variables()
-        units = self.position_units + self.state_units[self.n_channels:] + \
-            self.derivative_units
-        return {k: (v, units[i]) for i, (k, (v, _)) in enumerate(out.items())}
-
-
 def _label(model: Any) -> str:
     return getattr(model, "name", None) or type(model).__name__
 
 
 def __getattr__(name: str) -> Any:
-    """Deprecated aliases (one release): ``ColumnMap`` is now :class:`AdapterColumns`."""
+    """Deprecated aliases, kept for one release.
+
+    ``ColumnMap`` is now :class:`AdapterColumns`; ``ModelMechanicalSystem`` is
+    :class:`MechanicalSystem` (one mechanical form).
+    """
+    if name == "ModelMechanicalSystem":
+        warnings.warn("simgap.diagnosis.systems.ModelMechanicalSystem is deprecated: "
+                      "MechanicalSystem is the one mechanical form (columns and units from "
+                      "the model)", DeprecationWarning, stacklevel=2)
+        return MechanicalSystem
     if name == "ColumnMap":
         warnings.warn("simgap.diagnosis.systems.ColumnMap is deprecated: describe a file with "
                       "simgap.recordings.ColumnMap (diagnose(..., columns=)); the adapters' "

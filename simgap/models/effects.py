@@ -95,6 +95,16 @@ class FitSpec:
         to_report: ``to_report(effect, lin, nl, cov, context) -> (params, stderr, units)``;
             ``None``: the fit coordinates are the reported parameters. ``context`` holds
             the fitted values of the effects this one ``needs`` on the same channel.
+        for_data: ``for_data(effect, sig, index, ctx) -> effect | None``: the candidate as
+            one recording allows it, for forms that scale the vocabulary to the data (any
+            mechanical model but the built-in arm): bounds scaled to the recorded motion
+            (Stribeck's vs), or ``None`` when the recording holds no information about it
+            (gravity_mismatch of a model without gravity torques). ``sig``: the prepared
+            signals; ``ctx``: the form's effect context. ``None``: used as declared.
+        from_report: the inverse, ``from_report(params, context) -> (lin, nl)``: the fit
+            coordinates of reported parameters (how a saved augmented model is simulated
+            again); ``context`` as for ``to_report``. ``None`` with ``to_report`` unset:
+            the coordinates are the parameters of the same names.
     """
 
     scope: Literal["joint", "axle", "arm", "vehicle"]
@@ -114,6 +124,32 @@ class FitSpec:
     fn: FitFn = field(repr=False)
     to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None \
         = field(default=None, repr=False)
+    from_report: Callable[[Mapping[str, float], Mapping[str, float]],
+                          tuple[tuple[float, ...], tuple[float, ...]]] | None \
+        = field(default=None, repr=False)
+    for_data: Callable[[Any, Mapping[str, np.ndarray], int | None, Any], Any] | None \
+        = field(default=None, repr=False)
+
+    def coordinates(self, params: Mapping[str, float], context: Mapping[str, float] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The fit coordinates (lin, nl) of reported parameters (inverse of ``to_report``).
+
+        Raises:
+            ModelError: the reparametrisation has no inverse declared, or a parameter is
+                missing.
+        """
+        ctx = dict(context or {})
+        try:
+            if self.from_report is not None:
+                lin, nl = self.from_report(params, ctx)
+            elif self.to_report is None:
+                lin, nl = [params[n] for n in self.lin], [params[n] for n in self.nl]
+            else:
+                raise ModelError(f"{self.fn.__name__}: reported parameters have no declared "
+                                 "inverse (FitSpec.from_report)")
+        except KeyError as err:
+            raise ModelError(f"missing parameter {err} for the fit coordinates") from None
+        return np.asarray(lin, dtype=np.float64), np.asarray(nl, dtype=np.float64)
 
 
 def on_channel(values: np.ndarray, index: int, n_channels: int) -> np.ndarray:

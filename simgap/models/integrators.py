@@ -95,3 +95,20 @@ def integrate(deriv, x0: np.ndarray, u: np.ndarray, theta: np.ndarray, dt: float
         raise ValueError(f"unknown integration method {method!r}; use 'rk4' or 'euler'")
     return fn(deriv, np.asarray(x0, dtype=np.float64), np.asarray(u, dtype=np.float64),
               np.asarray(theta, dtype=np.float64), float(dt), int(n_sub))
+
+
+def rk4_batch_step(deriv, x: np.ndarray, h: float) -> np.ndarray:
+    """One classical RK4 step of length ``h`` (s) for a batch of states, in numpy.
+
+    ``deriv(x) -> dx/dt`` evaluates a whole batch (rows = independent states, the input
+    held over the step is closed over). The stage formulas are :func:`rk4_stage` and
+    :func:`rk4_combine` (their Python bodies), the same operations in the same order as
+    :func:`rk4_step`; this is how the diagnosis simulates many recorded windows at once.
+    """
+    stage, combine = rk4_stage.py_func, rk4_combine.py_func
+    half = 0.5 * h
+    k1 = deriv(x)
+    k2 = deriv(stage(x, half, k1))
+    k3 = deriv(stage(x, half, k2))
+    k4 = deriv(stage(x, h, k3))
+    return combine(x, h / 6.0, k1, k2, k3, k4)

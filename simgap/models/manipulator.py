@@ -484,6 +484,9 @@ class ManipulatorNominal(MechanicalNominalModel):
     obs_names = OBS_NAMES
     obs_units = OBS_UNITS
     recording_columns = RECORDING_COLUMNS
+    #: The vocabulary's fit bounds (rad/s, N·m) are written for this arm: the diagnosis uses
+    #: them as declared instead of scaling them to the recorded motion (FitSpec.for_data).
+    vocabulary_scaled_to_data = False
 
     def __init__(self, params: ManipulatorParams | None = None, dt: float = 0.002) -> None:
         validate_positive("dt", dt)
@@ -639,6 +642,42 @@ def _spring_report(effect, lin, nl, cov, context):
             {"k": "{effort}/{position}", "q0": "{position}"})
 
 
+#: A Stribeck velocity above this share of the joint's largest recorded speed is not a
+#: low-speed effect any more: it would only reshape the Coulomb/viscous curve.
+STRIBECK_MAX_SHARE = 0.25
+
+
+def _stribeck_for_data(effect, sig, j, ctx):
+    """Stribeck's vs bounded by :data:`STRIBECK_MAX_SHARE` of the joint's top recorded speed.
+
+    The vocabulary's bounds, in rad/s, mean nothing for a slider moving at 0.1 m/s, and a
+    "Stribeck" term with vs near the top speed only reshapes Coulomb + viscous friction (on
+    the EMPS data it then displaces the Coulomb term). The start grid scales with it.
+    """
+    if j is None:
+        return effect
+    hi = max(STRIBECK_MAX_SHARE * float(np.max(np.abs(sig["dq"]), axis=0)[j]), 2e-3)
+    return replace(effect, nl_bounds=((1e-3 * hi, hi),),
+                   nl_grid=(tuple(hi * np.array([0.05, 0.15, 0.4, 0.9])),))
+
+
+def _gravity_for_data(effect, sig, j, ctx):
+    """No gravity_mismatch where the model has no gravity torque on the recorded positions."""
+    q = sig["q"]
+    gravity = np.abs(ctx.gravity(q)).max() if q.size else 0.0
+    return None if gravity == 0.0 else effect
+
+
+def _stribeck_coords(params, context):
+    """Fit coordinates of a reported Stribeck term: A = Fs − Fc (same joint's Coulomb Fc)."""
+    return (params["Fs"] - context.get("Fc", 0.0),), (params["vs"],)
+
+
+def _spring_coords(params, context):
+    """Fit coordinates of a reported spring k·(q − q0): k and c = −k·q0."""
+    return (params["k"], -params["k"] * params["q0"]), ()
+
+
 _INF = math.inf
 
 
@@ -704,7 +743,8 @@ VOCABULARY = (
                            nl=("vs",), nl_units=("{position}/s",), nl_bounds=((1e-3, 2.0),),
                            nl_grid=((0.01, 0.03, 0.1, 0.3),),
                            generalizes=("coulomb_friction",), fn=_fit_stribeck,
-                           to_report=_stribeck_report)),
+                           to_report=_stribeck_report, from_report=_stribeck_coords,
+                           for_data=_stribeck_for_data)),
     EffectSpec(name="quadratic_drag", label="quadratic drag", scope="channel",
                params=(Param(name="c", unit="{effort}·s²/{position}²", bounds=_NONNEG,
                              inject=(0.01, 0.1)),),
@@ -726,7 +766,8 @@ VOCABULARY = (
                fit=FitSpec(scope="joint", lin=("k", "c"),
                            lin_units=("{effort}/{position}", "{effort}"),
                            lin_lower=(-_INF, -_INF), generalizes=("torque_bias",),
-                           fn=_fit_spring, to_report=_spring_report)),
+                           fn=_fit_spring, to_report=_spring_report,
+                           from_report=_spring_coords)),
     EffectSpec(name="payload_mass", label="payload mass", scope="system",
                params=(Param(name="mp", unit="kg", bounds=_NONNEG, inject=(0.1, 0.5)),),
                write=_payload,
@@ -738,7 +779,7 @@ VOCABULARY = (
                              signed=True),),
                write=_gravity,
                fit=FitSpec(scope="arm", lin=("dG",), lin_units=("-",), lin_lower=(-0.5,),
-                           lin_upper=(0.5,), fn=_fit_gravity)),
+                           lin_upper=(0.5,), fn=_fit_gravity, for_data=_gravity_for_data)),
     EffectSpec(name="inertia_mismatch", label="extra inertia", scope="channel",
                params=(Param(name="dI", unit="{inertia}", bounds=_NONNEG,
                              inject=(0.015, 0.04)),),

@@ -39,7 +39,7 @@ def test_augmented_manipulator_matches_effect_functions():
     assert isinstance(model, MechanicalNominalModel) and isinstance(model, NominalModel)
     nominal = man.ManipulatorNominal()
     sysm = MechanicalSystem(nominal)
-    sysm.coulomb_sigma = np.array([sigma, sigma])
+    ctx = sysm.effect_context(np.array([sigma, sigma]))
     rng = np.random.default_rng(0)
     q, dq, ddq = rng.normal(size=(3, 50, 2))
     sig = {"q": q, "dq": dq, "ddq": ddq}
@@ -53,7 +53,7 @@ def test_augmented_manipulator_matches_effect_functions():
     for e in effects:
         lin, nl = internal[e["effect"]]
         idx = None if e["channel"] is None else int(e["channel"][-1]) - 1
-        total = total + VOCABULARY[e["effect"]](np.array(lin), np.array(nl), sig, idx, sysm)
+        total = total + VOCABULARY[e["effect"]](np.array(lin), np.array(nl), sig, idx, ctx)
     aug = np.array([model.inverse_dynamics(q[k], dq[k], ddq[k]) for k in range(50)])
     np.testing.assert_allclose(aug, total, rtol=1e-9, atol=1e-9)
     # gravity_mismatch alone: G scaled by (1 + dG)

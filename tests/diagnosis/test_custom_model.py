@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from simgap.diagnosis import diagnose
 from simgap.diagnosis.pipeline import make_system
-from simgap.diagnosis.systems import ModelMechanicalSystem, translate_unit
+from simgap.diagnosis.systems import MechanicalSystem, translate_unit
 from simgap.diagnosis.user_models import check_model, column_map_of, with_columns
 from simgap.diagnosis.user_models import load_model_file as load_model
 from simgap.errors import CustomModelError
@@ -296,7 +296,7 @@ def test_make_system_uses_recorded_velocity_when_mapped() -> None:
     axis = with_columns(RigidAxisNominal(RigidAxisParams(mass=1.0), channel="slider"),
                         t="a", q="b", dq="c", u="d")
     system = make_system(axis)
-    assert isinstance(system, ModelMechanicalSystem)
+    assert isinstance(system, MechanicalSystem)
     assert system.columns.dq == ("dq",) and system.channels == ("slider",)
     assert system.channel_units == ("N",) and system.state_units == ("m", "m/s")
     no_dq = make_system(with_columns(RigidAxisNominal(RigidAxisParams(mass=1.0)), t="a",

@@ -130,6 +130,66 @@ def test_user_model_gets_augmented_model_json(api_report, axis_file: Path,
                                   api_report.augmented.f(np.array([0.1, 0.2]), np.array([1.0])))
 
 
+def test_user_model_augmented_model_is_a_plant(api_report, tmp_path: Path) -> None:
+    """A user model's augmented model is a serialisable Plant of the generic mechanical
+    schema (the model's joints + the vocabulary), written like the arm's (issue 12)."""
+    from simgap.diagnosis.augmented import AugmentedMechanical, mechanical_schema
+    from simgap.models.effects import Plant
+
+    aug = api_report.augmented
+    assert isinstance(aug, AugmentedMechanical) and isinstance(aug.plant, Plant)
+    saved = aug.to_dict()
+    assert "fitted" not in saved
+    plant = saved["plant"]
+    assert plant["system"] == "rigid_axis" and plant["params"]["mass"] == MASS
+    assert {(e["effect"], e["channel"]) for e in plant["effects"]} >= {
+        ("viscous_friction", "slider"), ("coulomb_friction", "slider")}
+    model = RigidAxisNominal(RigidAxisParams(mass=MASS), channel="slider")
+    again = Plant.from_dict(json.loads(json.dumps(plant)),
+                            mechanical_schema(model, ("slider",)))
+    assert again == aug.plant
+    # the plant alone simulates the model the diagnosis compared
+    rebuilt = AugmentedMechanical(model, api_report.system, plant=again)
+    x, u = np.array([0.1, 0.3]), np.array([2.0])
+    np.testing.assert_array_equal(rebuilt.f(x, u), aug.f(x, u))
+    assert rebuilt.f(x, u)[1] != model.f(x, u)[1]        # the friction is in it
+
+
+def test_reader_keeps_the_fitted_layout_of_user_models(api_report, tmp_path: Path) -> None:
+    """A user model's augmented_model.json as written before the plant ("fitted" terms in
+    fit coordinates, no "plant") still reads, to the same model."""
+    aug = api_report.augmented
+    old = {k: v for k, v in aug.to_dict().items() if k != "plant"}
+    old["fitted"] = [{"effect": e.name, "index": i, "lin": [float(v) for v in lin],
+                      "nl": [float(v) for v in nl]} for e, i, lin, nl in aug.fitted]
+    path = tmp_path / "augmented_model.json"
+    path.write_text(json.dumps(old), encoding="utf-8")
+    model = RigidAxisNominal(RigidAxisParams(mass=MASS), channel="slider")
+    again = load_augmented(path, model=model)
+    x, u = np.array([0.1, -0.3]), np.array([1.5])
+    np.testing.assert_array_equal(again.f(x, u), aug.f(x, u))
+    assert again.plant == aug.plant
+
+
+def test_fit_coordinates_invert_the_reported_parameters() -> None:
+    """FitSpec.coordinates is the inverse of to_report (Stribeck's Fs − Fc, the spring's
+    c = −k·q0, identity elsewhere); an effect without a declared inverse says so."""
+    from simgap.diagnosis.effects import VOCABULARY, report_params
+    from simgap.errors import ModelError
+
+    for name, lin, nl, ctx in (("stribeck_friction", [0.2], [0.05], {"Fc": 0.3}),
+                               ("spring", [2.5, -0.4], [], {}),
+                               ("viscous_friction", [0.7], [], {})):
+        eff = VOCABULARY[name]
+        cov = np.zeros((len(lin) + len(nl),) * 2)
+        params, _, _ = report_params(eff, np.array(lin), np.array(nl), cov, ctx)
+        got_lin, got_nl = eff.coordinates(params, {"Fc": ctx.get("Fc", 0.0)})
+        np.testing.assert_allclose(got_lin, lin, rtol=1e-15, atol=1e-15)
+        np.testing.assert_array_equal(got_nl, nl)
+    with pytest.raises(ModelError, match="inverse"):
+        VOCABULARY["mass_mismatch"].coordinates({"ratio": 1.1})
+
+
 def test_reader_keeps_todays_files(tmp_path: Path) -> None:
     """augmented_model.json of a built-in model as written on main still reads."""
     path = tmp_path / "augmented_model.json"
@@ -248,7 +308,9 @@ def test_canonical_recording_with_a_mapped_model(tmp_path: Path) -> None:
     ("simgap.diagnosis.custom", "with_columns", "simgap.diagnosis.user_models.with_columns"),
     ("simgap.diagnosis.custom", "make_system", "simgap.diagnosis.pipeline.make_system"),
     ("simgap.diagnosis.custom", "ModelMechanicalSystem",
-     "simgap.diagnosis.systems.ModelMechanicalSystem"),
+     "simgap.diagnosis.systems.MechanicalSystem"),
+    ("simgap.diagnosis.systems", "ModelMechanicalSystem",
+     "simgap.diagnosis.systems.MechanicalSystem"),
     ("simgap.diagnosis.systems", "ColumnMap", "simgap.diagnosis.systems.AdapterColumns"),
 ])
 def test_moved_names_warn_and_still_work(module: str, name: str, new: str) -> None:
@@ -288,5 +350,5 @@ def test_facade_is_lazy_and_complete() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     for name in ("diagnose", "Report", "generate", "InjectedEffect", "ColumnMap", "Column",
-                 "write_report", "summary_lines", "load_augmented"):
+                 "write_report", "summary_lines", "load_augmented", "ResidualForm", "Prepared"):
         assert f"'{name}'" in out

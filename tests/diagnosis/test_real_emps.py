@@ -174,7 +174,7 @@ def test_augmented_model_fits_held_out_data_better(reports) -> None:
 def _leftover_slopes(report) -> dict[int, float]:
     """Slope (N·s/m) of the unexplained residual against dq, per direction of motion."""
     left = (report.residual - report.fitted_pred)[:, 0]
-    dq = report.system.sig["dq"][:, 0]
+    dq = report.prepared.signals["dq"][:, 0]
     out = {}
     for sign in (1, -1):
         sel = (np.abs(dq) > 0.01) & (np.sign(dq) == sign)
@@ -206,7 +206,7 @@ def test_pulse_set_same_friction_more_high_frequency_leftover(reports) -> None:
 
     def high_share(report) -> float:
         left = (report.residual - report.fitted_pred)[:, 0]
-        f, p = welch(left, fs=1.0 / report.system.smoother.dt, nperseg=4096)
+        f, p = welch(left, fs=1.0 / report.prepared.smoother.dt, nperseg=4096)
         return float(p[f >= 50].sum() / p.sum())
 
     assert high_share(pulses) > 1.5 * high_share(reports["emps_estimation"])

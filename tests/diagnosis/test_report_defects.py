@@ -40,13 +40,13 @@ def _legends_outside(fig) -> None:
 
 
 def test_masked_samples_are_gaps_not_zeros(report) -> None:
-    mask = np.asarray(report.system.fit_mask(), dtype=bool)
+    mask = np.asarray(report.prepared.fit_mask, dtype=bool)
     assert (~mask[:, 1]).any() and mask[:, 1].any()  # stick phases exist at joint 2
     pred = fitted_for_plot(report)
     assert np.all(np.isnan(pred[~mask])) and np.all(np.isfinite(pred[mask]))
     fig = residual_time_figure(report)
     (line,) = [ln for ln in fig.axes[1].get_lines() if ln.get_label() == "named effects"]
-    idx = _thin(len(report.system.t))
+    idx = _thin(report.prepared.n)
     np.testing.assert_array_equal(np.isnan(line.get_ydata()), ~mask[idx, 1])
     _legends_outside(fig)
     _legends_outside(residual_vs_figure(report))

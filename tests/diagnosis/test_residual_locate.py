@@ -94,6 +94,7 @@ def test_collinear_effects_warn():
     """Two hypotheses that this data cannot tell apart: one is reported, with a warning."""
     from simgap.diagnosis.effects import Effect
     from simgap.diagnosis.fit import Fitter, Term
+    from simgap.diagnosis.forms import Prepared
     from simgap.diagnosis.residual import Smoother
 
     rng = np.random.default_rng(0)
@@ -102,16 +103,20 @@ def test_collinear_effects_warn():
     x = np.sin(0.7 * t) + 0.3 * np.sin(2.3 * t)
 
     class Fake:
-        smoother = Smoother(5, 0.01)
         channels = ("c",)
 
-        def __init__(self):
-            self.t = t
+        def context(self, prepared, terms=()):
+            return None
 
-        def rows(self, idx):
-            return {"x": x[idx], "t": t[idx]}
+        def locate_variables(self, prepared):
+            return {}
 
-        zero_derivatives = staticmethod(lambda sig: sig)
+    def prepared(residual, noise):
+        return Prepared(t=t, residual=residual, noise_rms=noise, signals={"x": x, "t": t},
+                        raw={}, smoother=Smoother(5, 0.01), resampled=False, column_noise={},
+                        inputs=np.zeros((n, 0)), fit_mask=np.ones(residual.shape, dtype=bool),
+                        state=np.zeros((n, 0)), state_derivative=np.zeros((n, 0)),
+                        derivatives=())
 
     def fa(lin, nl, sig, i, sys):
         return (lin[0] * sig["x"])[:, None]
@@ -124,7 +129,8 @@ def test_collinear_effects_warn():
     eb = Effect(name="beta", label="beta", scope="joint", lin=("b",), lin_units=("-",),
                 lin_lower=(-np.inf,), fn=fb)
     r = (0.5 * x + rng.normal(0, 0.05, n))[:, None]
-    sel = Fitter(Fake(), r, np.array([0.05])).select([Term(ea, 0, "c"), Term(eb, 0, "c")])
+    sel = Fitter(Fake(), prepared(r, np.array([0.05]))).select([Term(ea, 0, "c"),
+                                                                 Term(eb, 0, "c")])
     assert len(sel.fit.terms) == 1
     assert sel.warnings and set(sel.warnings[0]["effects"]) == {"alpha", "beta"}
     assert "cannot be told apart" in sel.warnings[0]["text"]

@@ -9,6 +9,7 @@ import pytest
 
 from simgap.diagnosis.effects import Effect
 from simgap.diagnosis.fit import Fitter, Term
+from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.residual import Smoother
 
 N = 6000
@@ -16,22 +17,30 @@ DT = 0.01
 
 
 class Fake:
-    """A bare adapter: rows carry their index, effects read closure arrays by index."""
-
-    smoother = Smoother(5, DT)
+    """A bare form: rows carry their index, effects read closure arrays by index."""
 
     def __init__(self, channels=("c",), rates=None):
-        self.t = np.arange(N) * DT
         self.channels = channels
         self._rates = rates or {}
 
-    def rows(self, idx):
-        return {"i": np.asarray(idx)}
+    def prepared(self, residual, noise):
+        """The prepared data of a residual (N, C): signals = the row index."""
+        t = np.arange(N) * DT
+        return Prepared(t=t, residual=residual, noise_rms=noise, signals={"i": np.arange(N)},
+                        raw={}, smoother=Smoother(5, DT), resampled=False, column_noise={},
+                        inputs=np.zeros((N, 0)), fit_mask=np.ones(residual.shape, dtype=bool),
+                        state=np.zeros((N, 0)), state_derivative=np.zeros((N, 0)),
+                        derivatives=())
 
-    zero_derivatives = staticmethod(lambda sig: sig)
+    def context(self, prepared, terms=()):
+        return None
 
-    def locate_variables(self):
+    def locate_variables(self, prepared):
         return {k: (v, "rad/s") for k, v in self._rates.items()}
+
+
+def _fitter(form, residual, noise, **kwargs):
+    return Fitter(form, form.prepared(residual, noise), **kwargs)
 
 
 def _effect(name, reg, lower=-np.inf, channels=1, index=0):
@@ -78,7 +87,7 @@ def test_small_real_effect_named_beside_a_large_unexplained_channel():
                          0.4 * x + rng.normal(0, 0.1, N)])
     sysm = Fake(channels=("c0", "c1"))
     term = Term(_effect("small", x, channels=2, index=1), 1, "c1")
-    sel = Fitter(sysm, r, np.array([0.1, 0.1])).select([term])
+    sel = _fitter(sysm, r, np.array([0.1, 0.1])).select([term])
     assert [t.label for t in sel.fit.terms] == ["small@c1"]
     assert abs(sel.fit.lin[0][0] - 0.4) < 0.05
     (entry,) = sel.tried
@@ -90,7 +99,7 @@ def test_pure_noise_names_nothing_and_says_why():
     rng = np.random.default_rng(2)
     x = np.sin(0.9 * np.arange(N) * DT)
     r = rng.normal(0, 0.1, (N, 1))
-    sel = Fitter(Fake(), r, np.array([0.1])).select([Term(_effect("e", x), 0, "c")])
+    sel = _fitter(Fake(), r, np.array([0.1])).select([Term(_effect("e", x), 0, "c")])
     assert sel.fit.terms == []
     (entry,) = sel.tried
     assert entry["decision"] == "rejected" and "not significant" in entry["reason"]
@@ -103,7 +112,7 @@ def test_cannot_test_when_the_held_out_part_holds_no_information():
     reg = np.zeros(N)
     sysm = Fake()
     r = rng.normal(0, 0.1, (N, 1))
-    fitter = Fitter(sysm, r, np.array([0.1]))
+    fitter = _fitter(sysm, r, np.array([0.1]))
     on = np.zeros(N, dtype=bool)
     on[fitter.train] = True
     for b in np.unique(fitter.split.valid_block):  # keep a window away from them
@@ -111,7 +120,7 @@ def test_cannot_test_when_the_held_out_part_holds_no_information():
         on[rows.min() - 10:rows.max() + 10] = False
     reg[on] = 1.0
     r[:, 0] += 0.5 * reg
-    fitter = Fitter(sysm, r, np.array([0.1]))
+    fitter = _fitter(sysm, r, np.array([0.1]))
     sel = fitter.select([Term(_effect("hidden", reg), 0, "c")])
     (entry,) = sel.tried
     assert entry["decision"] == "cannot test"
@@ -128,7 +137,7 @@ def test_offset_whose_sign_follows_the_direction_is_demoted():
     v = np.sin(0.7 * t) + 0.9
     r = (0.5 * np.sign(v) + rng.normal(0, 0.1, N))[:, None]
     ones = np.ones(N)
-    sel = Fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
+    sel = _fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
         [Term(_effect("bias", ones), 0, "c")])
     assert sel.fit.terms == []
     (entry,) = sel.tried
@@ -141,7 +150,7 @@ def test_true_constant_offset_is_kept():
     t = np.arange(N) * DT
     v = np.sin(0.7 * t) + 0.7
     r = (0.3 + rng.normal(0, 0.1, N))[:, None]
-    sel = Fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
+    sel = _fitter(Fake(rates={"v": v}), r, np.array([0.1])).select(
         [Term(_effect("bias", np.ones(N)), 0, "c")])
     assert [t.label for t in sel.fit.terms] == ["bias@c"]
 
@@ -153,7 +162,7 @@ def test_jointly_unidentifiable_set_is_not_named_as_a_whole():
     rng = np.random.default_rng(6)
     x = np.sin(0.9 * np.arange(N) * DT)
     r = (0.5 * x + rng.normal(0, 0.1, N))[:, None]
-    fitter = Fitter(Fake(), r, np.array([0.1]))
+    fitter = _fitter(Fake(), r, np.array([0.1]))
     ta, tb = Term(_effect("a", x), 0, "c"), Term(_effect("b", 2.0 * x), 0, "c")
     both = fitter.fit([ta, tb])
     from simgap.diagnosis.fit import Selection
@@ -177,7 +186,7 @@ def test_signed_nonlinear_correction_can_go_negative():
     eff = Effect(name="signed", label="signed", scope="joint", nl=("s",), nl_units=("-",),
                  nl_bounds=((-1.0, 1.0),), nl_grid=((-0.8, -0.3, 0.3, 0.8),), fn=fn)
     r = (np.tanh(-0.4 * 3.0 * x) + rng.normal(0, 0.05, N))[:, None]
-    sel = Fitter(Fake(), r, np.array([0.05])).select([Term(eff, 0, "c")])
+    sel = _fitter(Fake(), r, np.array([0.05])).select([Term(eff, 0, "c")])
     assert [t.label for t in sel.fit.terms] == ["signed@c"]
     assert abs(sel.fit.nl[0][0] + 0.4) < 0.03
 
@@ -194,7 +203,7 @@ def test_friction_family_fitted_together_with_a_signed_viscous_correction():
     r = (-0.3 * v + fc * np.tanh(v / 0.01) + rng.normal(0, 0.02, N))[:, None]
     coul = _effect("coulomb_friction", np.tanh(v / 0.01), lower=0.0)
     visc = _effect("viscous_friction", v, lower=-0.5)
-    sel = Fitter(Fake(), r, np.array([0.02])).select(
+    sel = _fitter(Fake(), r, np.array([0.02])).select(
         [Term(coul, 0, "c"), Term(visc, 0, "c")])
     fitted = {t.effect.name: float(lv[0]) for t, lv in zip(sel.fit.terms, sel.fit.lin,
                                                            strict=True)}
