@@ -12,9 +12,9 @@ envs, the identifiers and the diagnosis itself accept it:
 * :class:`AugmentedBicycle` is a :class:`~simgap.models.bicycle.BicycleNominal` with scaled
   mass, yaw inertia and axle stiffnesses, Magic-Formula axles where saturation was found,
   and the lateral/yaw biases; :meth:`~AugmentedBicycle.env_kwargs` gives the
-  ``BicycleTireEnv`` arguments (mu, tire, steering_lag, lateral_bias, yaw_bias,
-  true_params). Its two-state ``f`` uses the commanded steering; a steering lag needs the
-  road-wheel angle as an extra state and is carried by :meth:`plant_theta` and the env.
+  ``BicycleTireEnv`` argument ``plant=`` (each axle keeps its own fitted μ). Its two-state
+  ``f`` uses the commanded steering; a steering lag needs the road-wheel angle as an extra
+  state and is carried by :meth:`plant_theta` and the env.
 * :class:`AugmentedMechanical` wraps any other mechanical model: M(q) and bias(q, dq) gain
   the effects' terms. Its value is a :class:`~simgap.models.effects.Plant` too, of the
   generic mechanical schema built from the model's joints and the vocabulary

@@ -446,18 +446,13 @@ class BicycleSystem:
     def candidates(self, prepared: Prepared) -> list[tuple[Effect, int | None, str]]:
         """Vocabulary effects to test, adapted to the data by each effect's ``for_data``.
 
-        The steering lag is tested only on axles whose command varies. That rule is still
-        written here: its declaration belongs with the steering_lag entry of
-        :mod:`simgap.models.bicycle` (``FitSpec.for_data``), which a change on the models
-        side makes.
+        E.g. the steering lag only on axles whose command varies, as declared in
+        :mod:`simgap.models.bicycle`.
         """
         base: list[tuple[Effect, int | None, str]] = []
         for e in BICYCLE_EFFECTS:
             if e.scope == "axle":
                 for i in range(2):
-                    key = ("delta_f", "delta_r")[i]
-                    if e.name == "steering_lag" and np.ptp(prepared.signals[key]) < 1e-6:
-                        continue
                     base.append((e, i, self.channels[i]))
             else:
                 base.append((e, None, "vehicle"))

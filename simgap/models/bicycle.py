@@ -552,6 +552,16 @@ def _ratio_fit(scope: str, lower: float, upper: float, fn: Any, *,
                    to_report=_ratio_report)
 
 
+def _steering_lag_for_data(effect, sig, axle, ctx):
+    """No steering lag on an axle whose recorded command (rad) does not vary.
+
+    A lag of a constant command has no effect on the motion, so its time constant cannot be
+    fitted.
+    """
+    key = ("delta_f", "delta_r")[axle]
+    return None if np.ptp(sig[key]) < 1e-6 else effect
+
+
 #: The vehicle's effect vocabulary (``spec/diagnosis.md``) plus the injection-only
 #: ``tire_relaxation``, in fold order.
 VOCABULARY = (
@@ -591,7 +601,8 @@ VOCABULARY = (
                params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
                write=_value("steering_lag", "tau"), needs=("tire_saturation",),
                fit=FitSpec(scope="axle", nl=("tau",), nl_units=("s",), nl_bounds=((1e-3, 0.5),),
-                           nl_grid=((0.02, 0.05, 0.1, 0.3),), fn=_fit_steer_lag)),
+                           nl_grid=((0.02, 0.05, 0.1, 0.3),), fn=_fit_steer_lag,
+                           for_data=_steering_lag_for_data)),
     EffectSpec(name="tire_relaxation", label="tire relaxation", scope="channel",
                all_channels=True, vocabulary=False,
                params=(Param(name="length", unit="m", bounds=_NONNEG),),

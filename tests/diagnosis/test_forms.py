@@ -127,7 +127,7 @@ def test_forms_take_data_rules_and_coupling_from_the_vocabulary() -> None:
     from simgap.models.prismatic import RigidAxisNominal, RigidAxisParams
 
     source = inspect.getsource(systems)
-    for name in ("stribeck_friction", "gravity_mismatch", "tire_saturation"):
+    for name in ("stribeck_friction", "gravity_mismatch", "tire_saturation", "steering_lag"):
         assert f'"{name}"' not in source
     specs = {s.name: s for s in man.VOCABULARY}
     assert specs["stribeck_friction"].fit.for_data is not None
@@ -168,3 +168,20 @@ def test_one_mechanical_form_for_the_arm_and_user_models() -> None:
     assert not arm.scaled_to_data and axis.scaled_to_data
     with pytest.warns(DeprecationWarning, match="ModelMechanicalSystem is deprecated"):
         assert systems.ModelMechanicalSystem is MechanicalSystem
+
+
+def test_steering_lag_is_tried_only_where_the_command_varies() -> None:
+    """The bicycle's steering-lag rule is its vocabulary entry's ``for_data``."""
+    from simgap.diagnosis import systems
+    from simgap.diagnosis.generate import generate_bicycle
+    from simgap.models import bicycle as bic
+
+    specs = {s.name: s for s in bic.VOCABULARY}
+    assert specs["steering_lag"].fit.for_data is not None
+    form = systems.BicycleSystem()
+    front_only = form.prepare(generate_bicycle(duration=8.0, seed=0))
+    both = form.prepare(generate_bicycle(duration=8.0, seed=0, rear_steer=0.3))
+    lag = {j for e, j, _ in form.candidates(front_only) if e.name == "steering_lag"}
+    assert lag == {0}
+    lag = {j for e, j, _ in form.candidates(both) if e.name == "steering_lag"}
+    assert lag == {0, 1}
