@@ -103,7 +103,10 @@ class RandomFriction(gym.Wrapper):
         if not isinstance(env.unwrapped, BicycleTireEnv):
             raise TypeError("RandomFriction needs a BicycleTireEnv")
         self.mu_range = (float(mu_range[0]), float(mu_range[1]))
-        self.mu = float(env.unwrapped.mu)
+        axles = {m for m in env.unwrapped.mu_axles if m is not None}
+        # until the first reset: the env's road μ (its parameter if no axle saturates; the
+        # axles' mean if they differ — the first reset sets one road μ on every axle)
+        self.mu = float(np.mean(sorted(axles))) if axles else float(env.unwrapped.true_params.mu)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[Any, dict[str, Any]]:
@@ -115,9 +118,12 @@ class RandomFriction(gym.Wrapper):
         mu = opts.pop("mu", None)
         self.mu = float(mu) if mu is not None else float(base.np_random.uniform(*self.mu_range))
         plant = base.plant
-        # one road μ for both axles; with linear truth tires μ only sets the parameter
-        base.plant = plant.with_effect("tire_saturation", mu=self.mu) \
-            if plant.has("tire_saturation") else plant.with_params(mu=self.mu)
+        # one road μ for every saturating axle (a front-only saturation stays front-only);
+        # with linear truth tires μ only sets the parameter
+        saturating = [e.channel for e in plant.effects if e.name == "tire_saturation"]
+        for channel in saturating:
+            plant = plant.with_effect("tire_saturation", channel, mu=self.mu)
+        base.plant = plant if saturating else plant.with_params(mu=self.mu)
         obs, info = self.env.reset(options=opts or None)
         info["mu"] = self.mu
         return obs, info

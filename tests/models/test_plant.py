@@ -63,6 +63,14 @@ def test_env_views_follow_the_plant_and_cannot_go_stale():
     wrapped = RandomFriction(BicycleTireEnv(), (0.3, 0.9))
     _, info = wrapped.reset(options={"mu": 0.42})
     assert wrapped.unwrapped.mu == info["mu"] == 0.42
+    # an env whose axles differ: one road μ on every saturating axle, linear axles stay linear
+    front_only = BicycleTireEnv(plant=bic.make_plant().without("tire_saturation")
+                                .with_effect("tire_saturation", "front_axle", mu=0.6))
+    assert front_only.mu_axles == (0.6, None)
+    wrapped = RandomFriction(front_only, (0.3, 0.9))
+    assert wrapped.mu == 0.6
+    _, info = wrapped.reset(options={"mu": 0.42})
+    assert front_only.mu_axles == (0.42, None) and info["mu"] == 0.42
 
 
 def test_envs_accept_a_plant_and_agree_with_their_keyword_form():
