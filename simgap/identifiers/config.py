@@ -189,6 +189,11 @@ AUTO_MAX_OBSERVER_RATE = 20.0
 AUTO_BANDWIDTH_RATIO = 0.25
 #: Forgetting rate of the running input / output scales over γ, of the ``auto`` preset.
 AUTO_SCALE_RATIO = 0.05
+#: Rate of the hidden layer V̂ over the output layer's γ, κ, per kind, of the ``auto`` preset.
+AUTO_HIDDEN_RATE_RATIO: dict[str, float] = {"instantaneous": 8.0, "integral": 3.0,
+                                            "minibatch": 8.0}
+#: Largest λ·Δt of the ``auto`` preset's integral law (z's Euler pole 1 − λΔt ≥ 0.5).
+AUTO_MAX_LAM_STEP = 0.5
 
 
 def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
@@ -254,7 +259,8 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
                               f"got {dt!r}")
     a_d = -min(-AUTO_POLE_STEP / dt, AUTO_MAX_OBSERVER_RATE)
     gamma = AUTO_BANDWIDTH_RATIO * abs(a_d)
-    lam = 4.0 * gamma
+    kappa = AUTO_HIDDEN_RATE_RATIO[kind]
+    lam = min(2.0 * (1.0 + kappa) * gamma, AUTO_MAX_LAM_STEP / dt)
     period = 5
     n_hidden = 20
     if kind == "minibatch":
@@ -264,7 +270,7 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
     else:
         eta = gamma * a_d * a_d
     return IdentifierConfig(n_hidden=n_hidden, w0_scale=0.0, v0_scale=0.0, init="lecun", a_d=a_d,
-                            eta1=eta, eta2=eta, rho1=0.0, rho2=0.0, lam=lam,
+                            eta1=eta, eta2=kappa * eta, rho1=0.0, rho2=0.0, lam=lam,
                             buffer_size=1000, batch_size=32, update_period=period,
                             normalize_gradients=True, scale_rate=AUTO_SCALE_RATIO * gamma)
 

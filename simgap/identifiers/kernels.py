@@ -52,6 +52,7 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     dot,
+    jacobian_norm2,
     normalised_rates,
     observer_delta,
     observer_error,
@@ -292,7 +293,8 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         ce = R[HP_ESCALE]
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
-                                      dot(T, td, T, td, n), R[HP_NORM2], ce)
+                                      dot(T, td, T, td, n), jacobian_norm2(R, ow, n, h, T, ts),
+                                      ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
                               leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
                               tsc):

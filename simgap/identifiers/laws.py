@@ -135,6 +135,24 @@ def dot(a, oa, b, ob, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
+    """‖Ŵ D‖_F² = Σ_r Σ_j Ŵ_rj² (1 − σ_j²)², D = I − Λ: the hidden layer's gain.
+
+    Ŵ at ``R[ow:]`` (row-major n × n_h), σ at ``T[os:]``. ‖Ŵ D‖_F² ‖x̄‖² bounds the largest
+    eigenvalue of J_V J_Vᵀ = ‖x̄‖² Ŵ D² Ŵᵀ (J_V = ∂ĝ/∂V̂), the output move of a unit V̂ step.
+    """
+    acc = 0.0
+    for r in range(n):
+        base = ow + r * h
+        for j in range(h):
+            sj = T[_ix(os + j)]
+            d = 1.0 - sj * sj
+            w = R[_ix(base + j)]
+            acc += w * w * d * d
+    return acc
+
+
+@njit(cache=True, inline="always")
 def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
     """Bound-normalised step sizes of the unified law (the ``auto`` preset).
 

@@ -52,6 +52,42 @@ def test_observer_update_matches_matrix_form(kind):
         np.testing.assert_allclose(ident.x_tilde, xn - x_hat, rtol=1e-12, atol=1e-14)
 
 
+@pytest.mark.parametrize("kind", ["instantaneous", "integral"])
+def test_normalised_observer_step_matches_matrix_form(kind):
+    """Bound-normalised steps (the auto preset's): k1' = k1/(1 + ‖σ‖²) and
+    k2' = k2/(‖x̄‖² (‖Ŵ D‖_F² + c_e² ‖δ‖²)), D = I − Λ, written out with matrices."""
+    from simgap.identifiers.config import error_scale
+
+    rng = np.random.default_rng(4)
+    dt = 0.01
+    cfg = preset("auto", kind, dt=dt).replace(scale_rate=0.0, w0_scale=0.5, init="uniform",
+                                              v0_scale=0.8)
+    ce = error_scale(kind, cfg, dt)
+    ident = make_identifier(kind, 2, 2, dt, config=cfg, seed=5)
+    W, V = ident.W, ident.V  # noqa: N806
+    x_hat = rng.normal(size=2)
+    z = np.zeros(2)
+    ident.reset_observer(x_hat)
+    for _ in range(4):
+        x, u, f, xn = (rng.normal(size=2) for _ in range(4))
+        xb = np.concatenate([x_hat, u])
+        s = np.tanh(V @ xb)
+        e = (x - x_hat) if kind == "instantaneous" else z
+        delta = e / cfg.a_d
+        wd = np.sum((W * (1.0 - s ** 2)) ** 2)  # ‖Ŵ D‖_F², not ‖Ŵ‖_F²
+        k1 = dt * cfg.eta1 / (1.0 + s @ s)
+        k2 = dt * cfg.eta2 / ((xb @ xb) * (wd + ce * ce * (delta @ delta)))
+        W_new = W - k1 * np.outer(delta, s)  # noqa: N806
+        V_new = V - k2 * np.outer((1.0 - s ** 2) * (W.T @ delta), xb)  # noqa: N806
+        x_hat = x_hat + dt * (f + W @ s - cfg.a_d * (x - x_hat))
+        z = z + dt * (-cfg.lam * z + (x - xb[:2]))
+        W, V = W_new, V_new  # noqa: N806
+        ident.step(x, u, f, xn)
+        np.testing.assert_allclose(ident.W, W, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.V, V, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.x_hat, x_hat, rtol=1e-12, atol=1e-14)
+
+
 def test_minibatch_sgd_matches_torch_autograd():
     """One burst = one SGD step (eq. 4.4) on J_mb (eq. 4.3) over the drawn indices."""
     torch = pytest.importorskip("torch")
