@@ -156,15 +156,19 @@ def jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
 def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
     """Bound-normalised step sizes of the unified law (the ``auto`` preset).
 
-        k1' = k1 / (1 + ‖σ‖²),    k2' = k2 / (‖x̄‖² (‖Ŵ‖_F² + c_e² ‖δ‖²))
+        k1' = k1 / (1 + ‖σ‖²),    k2' = k2 / (‖x̄‖² (‖Ŵ D‖_F² + c_e² ‖δ‖²)),   D = I − Λ
 
-    Why: one Ŵ step moves ĝ by −k1' ‖σ‖² δ and one V̂ step by −k2' Ŵ D² Ŵᵀ δ ‖x̄‖²
-    (D = I − Λ). With δ = ε / c_e, ε the residual error in state units/s (c_e = a_d² for
-    baseline 1, λ a_d² for the integral law, 1/Δt² for baseline 2), both moves are then at
-    most k_i / c_e of ε per step, whatever the scales of x̄ (input units) and ĝ (state
-    units/s): the normalised LMS step in each layer. ‖Ŵ‖² + c_e²‖δ‖² > 0 whenever there is
-    an error to learn from, so the V̂ step stays bounded while Ŵ is still ≈ 0. Returns
-    (k1', k2'); k2' = 0 when x̄ = 0 and δ = 0 (nothing to learn).
+    Why: one Ŵ step moves ĝ by −k1' ‖σ‖² δ and one V̂ step by −k2' Ŵ D² Ŵᵀ δ ‖x̄‖², whose
+    norm is at most k2' ‖x̄‖² ‖Ŵ D‖_F² ‖δ‖ (:func:`jacobian_norm2`). With δ = ε / c_e, ε
+    the residual error in state units/s (c_e = a_d² for baseline 1, λ a_d² for the integral
+    law, 1/Δt² for baseline 2), both moves are then at most k_i / c_e of ε per step,
+    whatever the scales of x̄ (input units) and ĝ (state units/s): the normalised LMS step
+    in each layer. The bound uses ‖Ŵ D‖_F², not ‖Ŵ‖_F²: saturated units (D ≈ 0) already
+    carry no gradient, and a bound that ignored D would shrink the hidden layer's step a
+    second time. ‖Ŵ D‖² + c_e²‖δ‖² > 0 whenever there is an error to learn from, so the V̂
+    step stays bounded while Ŵ is still ≈ 0 (its weight change is at most
+    k2 / (2 c_e ‖x̄‖) however small ‖Ŵ D‖ is). Returns (k1', k2'); k2' = 0 when x̄ = 0 and
+    δ = 0 (nothing to learn).
 
     Args:
         k1: plain step size of Ŵ (Δt η1 for the observer laws, η1 for baseline 2).
@@ -172,7 +176,7 @@ def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
         ss: ‖σ‖².
         xx: ‖x̄‖².
         dd: ‖δ‖².
-        ww: ‖Ŵ‖_F².
+        ww: ‖Ŵ D‖_F² (:func:`jacobian_norm2`; baseline 2: its batch mean).
         ce: c_e (> 0).
     """
     den = xx * (ww + ce * ce * dd)

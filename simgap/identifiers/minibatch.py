@@ -74,7 +74,7 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with the weights held fixed, then applied
     once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. With ``ce`` > 0
     the step sizes are bound-normalised (:func:`~simgap.identifiers.laws.normalised_rates`)
-    with the batch means of ‖σ‖², ‖x̄‖² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
+    with the batch means of ‖σ‖², ‖x̄‖², ‖Ŵ D_j‖_F² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
     c_e M δ_j is sample j's residual error with c_e = 1/Δt²). With ``ons`` ≥ 0 (the row's
     scale block) the network runs on the running scales of :mod:`~simgap.identifiers.scales`:
     the stored x̄_j is normalised into ``T[oxn:]`` (p), the output y goes to ``T[oy:]`` (n),
