@@ -143,7 +143,8 @@ class Identifier(IdentifierBase):
 
     @property
     def x_bar(self) -> np.ndarray:
-        """Network input of the last step (p,): [x̂_k; u_k] (observer laws) or [x_k; u_k]."""
+        """Network input of the last step (p,): [x̂_k; u_k] (observer laws, baseline 2 on x̂) or
+        [x_k; u_k]."""
         return self._xb_view.copy()
 
     @property
