@@ -37,7 +37,9 @@ class Law:
 
     Attributes:
         code: integer code of the error signal inside the numba kernels (``HP_MODE``).
-        uses_observer: True if the law runs the observer x̂ (eq. 3.1) and learns per step.
+        uses_observer: True if the law runs the observer x̂ (eq. 3.1) and learns per step
+            (baseline 2 runs x̂ too when it learns on it, ``minibatch_input="estimate"``,
+            with the ``a_d`` of the observer laws).
         uses_buffer: True if the law keeps a sliding-window buffer (baseline 2).
         hyper: the :class:`~simgap.identifiers.IdentifierConfig` fields only this law (or
             this family of laws) reads, besides the shared network sizes, η1, η2 and the
@@ -70,7 +72,8 @@ LAWS: dict[str, Law] = {
                     hyper=("a_d", "rho1", "rho2", "lam"), column=2,
                     label="Proposed (integral)", short="Proposed", equation="3.9, 4.6"),
     "minibatch": Law(code=2, uses_observer=False, uses_buffer=True,
-                     hyper=("buffer_size", "batch_size", "update_period"), column=1,
+                     hyper=("buffer_size", "batch_size", "update_period", "minibatch_input"),
+                     column=1,
                      label="Baseline 2 (mini-batch)", short="B2", equation="4.2-4.4"),
 }
 
