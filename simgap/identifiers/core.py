@@ -131,7 +131,8 @@ class IdentifierBase:
         hp[K.HP_DT] = dt
         hp[K.HP_N] = n
         hp[K.HP_M] = m
-        hp[K.HP_MODE] = KIND_CODES[kind]
+        hp[K.HP_MODE] = (K.MB_ESTIMATE if kind == "minibatch"
+                         and config.minibatch_input == "estimate" else KIND_CODES[kind])
         hp[K.HP_ESCALE] = error_scale(kind, config, dt)
         self._hp = hp
         self._minibatch = kind == "minibatch"
@@ -345,6 +346,11 @@ class IdentifierBase:
 
     def _initialised(self) -> np.ndarray:
         return self._state[:, self._lay["oini"]] != 0.0
+
+    @property
+    def observes(self) -> bool:
+        """True if the rows run the observer x̂ (the observer laws; baseline 2 on x̂)."""
+        return not self._minibatch or self.config.minibatch_input == "estimate"
 
     def _set_observer(self, sel: np.ndarray | slice, x0: np.ndarray | None) -> None:
         """x̂ = x0 and z = 0 in rows ``sel`` (x0 None: uninitialised, x̂ = the next x)."""

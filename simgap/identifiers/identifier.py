@@ -143,7 +143,10 @@ class Identifier(IdentifierBase):
 
     @property
     def x_bar(self) -> np.ndarray:
-        """Network input of the last step (p,): [x̂_k; u_k] (observer laws) or [x_k; u_k]."""
+        """Network input of the last step (p,): [x̂_k; u_k] or [x_k; u_k].
+
+        [x̂_k; u_k] for the observer laws and baseline 2 on x̂ (``minibatch_input``).
+        """
         return self._xb_view.copy()
 
     @property

@@ -52,6 +52,7 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     dot,
+    jacobian_norm2,
     normalised_rates,
     observer_delta,
     observer_error,
@@ -82,6 +83,8 @@ HP_ESCALE = 19
 #: 0 = raw inputs and outputs (every thesis preset).
 HP_SRATE = 20
 HP_SIZE = 21
+#: ``HP_MODE`` of baseline 2 learning on the observer's x̂ (``minibatch_input="estimate"``).
+MB_ESTIMATE = 3
 
 #: Activity codes (``S[i, HP_ACT]``).
 SKIP, FROZEN, LEARN = 0.0, 1.0, 2.0
@@ -292,7 +295,8 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         ce = R[HP_ESCALE]
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
-                                      dot(T, td, T, td, n), R[HP_NORM2], ce)
+                                      dot(T, td, T, td, n), jacobian_norm2(R, ow, n, h, T, ts),
+                                      ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
                               leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
                               tsc):
@@ -508,8 +512,10 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
             continue
         io = i * n
         dt = R[HP_DT]
-        for r in range(n):
-            R[_ix(oxb + r)] = x[_ix(io + r)]
+        observe = R[HP_MODE] == MB_ESTIMATE
+        fresh = R[oini] == 0.0
+        for r in range(n):  # x̄_k = [x_k; u_k], or [x̂_k; u_k] on the observer's estimate
+            R[_ix(oxb + r)] = R[_ix(oxh + r)] if observe and not fresh else x[_ix(io + r)]
         for c in range(m):
             R[_ix(oxb + n + c)] = u[_ix(i * m + c)]
         rate = R[HP_SRATE]
@@ -519,6 +525,19 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
             scale_outputs(R, ons, n, p, T, ty, R, og)
         else:
             forward(R, ow, n, h, p, R, oxb, T, ts, R, og)
+        if observe:  # x̂_{k+1} = x̂_k + Δt (f_k + ĝ_k − a_d (x_k − x̂_k))   (eq. 3.1)
+            a_d = R[HP_AD]
+            for r in range(n):
+                xh = R[_ix(oxb + r)]
+                T[_ix(ty + r)] = xh + dt * (f[_ix(io + r)] + R[_ix(og + r)]
+                                            - a_d * (x[_ix(io + r)] - xh))
+            if not _finite(T, ty, n):
+                R[HP_STATUS] = STATUS_STATE_DIVERGED
+                nfail += 1
+                continue
+            for r in range(n):
+                R[_ix(oxh + r)] = T[_ix(ty + r)]
+            R[oini] = 1.0
         for r in range(n):
             pred = x[_ix(io + r)] + dt * (f[_ix(io + r)] + R[_ix(og + r)])  # eq. 4.2
             R[_ix(oxh1 + r)] = pred

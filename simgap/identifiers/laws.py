@@ -37,7 +37,9 @@ class Law:
 
     Attributes:
         code: integer code of the error signal inside the numba kernels (``HP_MODE``).
-        uses_observer: True if the law runs the observer x̂ (eq. 3.1) and learns per step.
+        uses_observer: True if the law runs the observer x̂ (eq. 3.1) and learns per step
+            (baseline 2 runs x̂ too when it learns on it, ``minibatch_input="estimate"``,
+            with the ``a_d`` of the observer laws).
         uses_buffer: True if the law keeps a sliding-window buffer (baseline 2).
         hyper: the :class:`~simgap.identifiers.IdentifierConfig` fields only this law (or
             this family of laws) reads, besides the shared network sizes, η1, η2 and the
@@ -70,7 +72,8 @@ LAWS: dict[str, Law] = {
                     hyper=("a_d", "rho1", "rho2", "lam"), column=2,
                     label="Proposed (integral)", short="Proposed", equation="3.9, 4.6"),
     "minibatch": Law(code=2, uses_observer=False, uses_buffer=True,
-                     hyper=("buffer_size", "batch_size", "update_period"), column=1,
+                     hyper=("buffer_size", "batch_size", "update_period", "minibatch_input"),
+                     column=1,
                      label="Baseline 2 (mini-batch)", short="B2", equation="4.2-4.4"),
 }
 
@@ -135,18 +138,40 @@ def dot(a, oa, b, ob, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
+    """‖Ŵ D‖_F² = Σ_r Σ_j Ŵ_rj² (1 − σ_j²)², D = I − Λ: the hidden layer's gain.
+
+    Ŵ at ``R[ow:]`` (row-major n × n_h), σ at ``T[os:]``. ‖Ŵ D‖_F² ‖x̄‖² bounds the largest
+    eigenvalue of J_V J_Vᵀ = ‖x̄‖² Ŵ D² Ŵᵀ (J_V = ∂ĝ/∂V̂), the output move of a unit V̂ step.
+    """
+    acc = 0.0
+    for r in range(n):
+        base = ow + r * h
+        for j in range(h):
+            sj = T[_ix(os + j)]
+            d = 1.0 - sj * sj
+            w = R[_ix(base + j)]
+            acc += w * w * d * d
+    return acc
+
+
+@njit(cache=True, inline="always")
 def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
     """Bound-normalised step sizes of the unified law (the ``auto`` preset).
 
-        k1' = k1 / (1 + ‖σ‖²),    k2' = k2 / (‖x̄‖² (‖Ŵ‖_F² + c_e² ‖δ‖²))
+        k1' = k1 / (1 + ‖σ‖²),    k2' = k2 / (‖x̄‖² (‖Ŵ D‖_F² + c_e² ‖δ‖²)),   D = I − Λ
 
-    Why: one Ŵ step moves ĝ by −k1' ‖σ‖² δ and one V̂ step by −k2' Ŵ D² Ŵᵀ δ ‖x̄‖²
-    (D = I − Λ). With δ = ε / c_e, ε the residual error in state units/s (c_e = a_d² for
-    baseline 1, λ a_d² for the integral law, 1/Δt² for baseline 2), both moves are then at
-    most k_i / c_e of ε per step, whatever the scales of x̄ (input units) and ĝ (state
-    units/s): the normalised LMS step in each layer. ‖Ŵ‖² + c_e²‖δ‖² > 0 whenever there is
-    an error to learn from, so the V̂ step stays bounded while Ŵ is still ≈ 0. Returns
-    (k1', k2'); k2' = 0 when x̄ = 0 and δ = 0 (nothing to learn).
+    Why: one Ŵ step moves ĝ by −k1' ‖σ‖² δ and one V̂ step by −k2' Ŵ D² Ŵᵀ δ ‖x̄‖², whose
+    norm is at most k2' ‖x̄‖² ‖Ŵ D‖_F² ‖δ‖ (:func:`jacobian_norm2`). With δ = ε / c_e, ε
+    the residual error in state units/s (c_e = a_d² for baseline 1, λ a_d² for the integral
+    law, 1/Δt² for baseline 2), both moves are then at most k_i / c_e of ε per step,
+    whatever the scales of x̄ (input units) and ĝ (state units/s): the normalised LMS step
+    in each layer. The bound uses ‖Ŵ D‖_F², not ‖Ŵ‖_F²: saturated units (D ≈ 0) already
+    carry no gradient, and a bound that ignored D would shrink the hidden layer's step a
+    second time. ‖Ŵ D‖² + c_e²‖δ‖² > 0 whenever there is an error to learn from, so the V̂
+    step stays bounded while Ŵ is still ≈ 0 (its weight change is at most
+    k2 / (2 c_e ‖x̄‖) however small ‖Ŵ D‖ is). Returns (k1', k2'); k2' = 0 when x̄ = 0 and
+    δ = 0 (nothing to learn).
 
     Args:
         k1: plain step size of Ŵ (Δt η1 for the observer laws, η1 for baseline 2).
@@ -154,7 +179,7 @@ def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
         ss: ‖σ‖².
         xx: ‖x̄‖².
         dd: ‖δ‖².
-        ww: ‖Ŵ‖_F².
+        ww: ‖Ŵ D‖_F² (:func:`jacobian_norm2`; baseline 2: its batch mean).
         ce: c_e (> 0).
     """
     den = xx * (ww + ce * ce * dd)

@@ -22,7 +22,13 @@ from __future__ import annotations
 from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
-from simgap.identifiers.laws import apply_gradients, backprop, dot, normalised_rates
+from simgap.identifiers.laws import (
+    apply_gradients,
+    backprop,
+    dot,
+    jacobian_norm2,
+    normalised_rates,
+)
 from simgap.identifiers.network import forward
 from simgap.identifiers.scales import (
     delta_factor,
@@ -68,7 +74,7 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     accumulated in ``T[ogw:]`` (G_W then G_Vᵀ) with the weights held fixed, then applied
     once; ``T[os:]``, ``T[og:]``, ``T[od:]`` and ``T[osc:]`` are scratch. With ``ce`` > 0
     the step sizes are bound-normalised (:func:`~simgap.identifiers.laws.normalised_rates`)
-    with the batch means of ‖σ‖², ‖x̄‖² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
+    with the batch means of ‖σ‖², ‖x̄‖², ‖Ŵ D_j‖_F² and of M²‖δ_j‖² (δ_j = Δt r_j / M, so that
     c_e M δ_j is sample j's residual error with c_e = 1/Δt²). With ``ons`` ≥ 0 (the row's
     scale block) the network runs on the running scales of :mod:`~simgap.identifiers.scales`:
     the stored x̄_j is normalised into ``T[oxn:]`` (p), the output y goes to ``T[oy:]`` (n),
@@ -82,6 +88,7 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     ss = 0.0
     xx = 0.0
     dd = 0.0
+    wd = 0.0  # Σ_j ‖Ŵ D_j‖²
     ee = 0.0  # Σ ‖ε_j‖², ε_j = −d_j / Δt the batch's residual samples (running scales)
     inv = 1.0 / output_scale(R, ons, p) if ons >= 0 and output_scale(R, ons, p) > 0.0 \
         else 0.0
@@ -106,6 +113,7 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
             ss += dot(T, os, T, os, h)
             xx += dot(xin, oin, xin, oin, p)
             dd += dot(T, od, T, od, n)
+            wd += jacobian_norm2(R, ow, n, h, T, os)
         backprop(R, ow, n, h, p, T, od, os, xin, oin, ogw, osc)
     if ons >= 0:  # s → s_eff = max(s, batch RMS of ε): the gradient is linear in δ
         c = delta_factor(R, ons, p, (ee / (m * n)) ** 0.5) / inv if inv > 0.0 else 0.0
@@ -113,5 +121,5 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
         eta2 *= c
         dd *= c * c
     if ce > 0.0:
-        eta1, eta2 = normalised_rates(eta1, eta2, ss / m, xx / m, dd * m, R[onorm], ce)
+        eta1, eta2 = normalised_rates(eta1, eta2, ss / m, xx / m, dd * m, wd / m, ce)
     return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, onorm, osc)

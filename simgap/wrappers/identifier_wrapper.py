@@ -180,7 +180,7 @@ def unwrap_pair(ident: Identifier, per: np.ndarray, x: np.ndarray, x_next: np.nd
                 ) -> tuple[np.ndarray, np.ndarray]:
     """x_k, x_{k+1} with their angles ``per`` moved by whole turns next to the reference.
 
-    The reference is x̂_k for the observer laws (once initialised), else x_k itself:
+    The reference is x̂_k where the identifier runs an observer (once initialised), else x_k itself:
     x_k[i] → ref[i] + wrap(x_k[i] − ref[i]), x_{k+1}[i] → x_k[i] + wrap(x_{k+1}[i] − x_k[i])
     (the new x_k). The identifier then sees a continuous angle and its error x − x̂ is the
     wrapped error.
@@ -188,7 +188,7 @@ def unwrap_pair(ident: Identifier, per: np.ndarray, x: np.ndarray, x_next: np.nd
     x = x.copy()
     x_next = x_next.copy()
     step = wrap_angle(x_next[per] - x[per])
-    if ident.kind != "minibatch" and ident.observer_initialised:
+    if ident.observes and ident.observer_initialised:
         ref = ident._field("observer")[0, per]
         x[per] = ref + wrap_angle(x[per] - ref)
     x_next[per] = x[per] + step

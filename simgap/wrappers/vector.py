@@ -236,13 +236,14 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         """Rows of (x_k, x_{k+1}) with angles moved by whole turns next to each row's x̂.
 
         As :func:`~simgap.wrappers.identifier_wrapper.unwrap_pair` per row: the reference is
-        x̂_k where the row's observer is initialised (not for baseline 2), else x_k itself.
+        x̂_k where the row's observer is initialised (not for baseline 2 on measured x),
+        else x_k itself.
         """
         x = x.copy()
         x_next = x_next.copy()
         step = wrap_angle(x_next[:, per] - x[:, per])
         ident = self.identifier
-        if ident.kind != "minibatch":
+        if ident.observes:
             obs = ident._field("observer")  # [x̂ (n) | z (n) | initialised]
             ready = obs[:, 2 * self._n] != 0.0
             ref = obs[:, per]

@@ -15,7 +15,7 @@ from simgap.identifiers import (
     preset,
 )
 from simgap.identifiers import kernels as K
-from simgap.identifiers.config import KIND_CODES, error_scale
+from simgap.identifiers.config import AUTO_HIDDEN_RATE_RATIO, KIND_CODES, error_scale
 from simgap.identifiers.core import FIXED_SLOTS, HEADER_FIELDS
 from simgap.identifiers.laws import LAWS
 
@@ -47,6 +47,12 @@ def test_auto_preset_is_discretely_stable_and_shares_one_bandwidth(dt):
         k, per = (cfg.eta1, dt * cfg.update_period) if kind == "minibatch" else \
             (dt * cfg.eta1, dt)
         assert k / ce == pytest.approx(gamma * per)
+        # the hidden layer runs κ times faster; the integral law's z filter is faster than
+        # both layers together (λ = 2(1 + κ)γ) within Euler's reach (λΔt ≤ 0.5)
+        kappa = AUTO_HIDDEN_RATE_RATIO[kind]
+        assert cfg.eta2 == pytest.approx(kappa * cfg.eta1)
+        if kind == "integral":
+            assert cfg.lam == pytest.approx(min(2 * (1 + kappa) * gamma, 0.5 / dt))
     for kind in KINDS:  # thesis presets: plain gradients, c_e = 0
         assert error_scale(kind, preset("manipulator", kind), 0.002) == 0.0
 

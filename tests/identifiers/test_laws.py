@@ -52,6 +52,42 @@ def test_observer_update_matches_matrix_form(kind):
         np.testing.assert_allclose(ident.x_tilde, xn - x_hat, rtol=1e-12, atol=1e-14)
 
 
+@pytest.mark.parametrize("kind", ["instantaneous", "integral"])
+def test_normalised_observer_step_matches_matrix_form(kind):
+    """Bound-normalised steps (the auto preset's): k1' = k1/(1 + ‖σ‖²) and
+    k2' = k2/(‖x̄‖² (‖Ŵ D‖_F² + c_e² ‖δ‖²)), D = I − Λ, written out with matrices."""
+    from simgap.identifiers.config import error_scale
+
+    rng = np.random.default_rng(4)
+    dt = 0.01
+    cfg = preset("auto", kind, dt=dt).replace(scale_rate=0.0, w0_scale=0.5, init="uniform",
+                                              v0_scale=0.8)
+    ce = error_scale(kind, cfg, dt)
+    ident = make_identifier(kind, 2, 2, dt, config=cfg, seed=5)
+    W, V = ident.W, ident.V  # noqa: N806
+    x_hat = rng.normal(size=2)
+    z = np.zeros(2)
+    ident.reset_observer(x_hat)
+    for _ in range(4):
+        x, u, f, xn = (rng.normal(size=2) for _ in range(4))
+        xb = np.concatenate([x_hat, u])
+        s = np.tanh(V @ xb)
+        e = (x - x_hat) if kind == "instantaneous" else z
+        delta = e / cfg.a_d
+        wd = np.sum((W * (1.0 - s ** 2)) ** 2)  # ‖Ŵ D‖_F², not ‖Ŵ‖_F²
+        k1 = dt * cfg.eta1 / (1.0 + s @ s)
+        k2 = dt * cfg.eta2 / ((xb @ xb) * (wd + ce * ce * (delta @ delta)))
+        W_new = W - k1 * np.outer(delta, s)  # noqa: N806
+        V_new = V - k2 * np.outer((1.0 - s ** 2) * (W.T @ delta), xb)  # noqa: N806
+        x_hat = x_hat + dt * (f + W @ s - cfg.a_d * (x - x_hat))
+        z = z + dt * (-cfg.lam * z + (x - xb[:2]))
+        W, V = W_new, V_new  # noqa: N806
+        ident.step(x, u, f, xn)
+        np.testing.assert_allclose(ident.W, W, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.V, V, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.x_hat, x_hat, rtol=1e-12, atol=1e-14)
+
+
 def test_minibatch_sgd_matches_torch_autograd():
     """One burst = one SGD step (eq. 4.4) on J_mb (eq. 4.3) over the drawn indices."""
     torch = pytest.importorskip("torch")
@@ -121,3 +157,44 @@ def test_error_dynamics_stable_with_network_off():
         ident.step(x, u, f, x_next)
         x = x_next
     np.testing.assert_allclose(ident.x_tilde, -g / a_d, rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("source", ["measured", "estimate"])
+def test_minibatch_input_measured_or_observer_estimate(source):
+    """Baseline 2's network input: [x_k; u_k], or [x̂_k; u_k] with x̂ the eq. 3.1 observer;
+    the one-step prediction (eq. 4.2) stays on the measured x_k."""
+    rng = np.random.default_rng(7)
+    dt = 0.01
+    cfg = preset("auto", "minibatch", dt=dt).replace(
+        scale_rate=0.0, w0_scale=0.5, init="uniform", v0_scale=0.8, minibatch_input=source)
+    ident = make_identifier("minibatch", 2, 2, dt, config=cfg, seed=2)
+    W, V = ident.W, ident.V  # noqa: N806
+    x_hat = None
+    for _ in range(cfg.update_period - 1):  # before the first SGD burst: weights fixed
+        x, u, f, xn = (rng.normal(size=2) for _ in range(4))
+        if x_hat is None:
+            x_hat = x  # a fresh observer starts at the measurement
+        xb = np.concatenate([x_hat if source == "estimate" else x, u])
+        g_ref = W @ np.tanh(V @ xb)
+        g = ident.step(x, u, f, xn)
+        np.testing.assert_allclose(g, g_ref, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.x_bar, xb, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(ident.x_hat, x + dt * (f + g_ref), rtol=1e-12, atol=1e-14)
+        x_hat = x_hat + dt * (f + g_ref - cfg.a_d * (x - x_hat))
+        obs = ident._field("observer")[0]
+        if source == "estimate":
+            np.testing.assert_allclose(obs[:2], x_hat, rtol=1e-12, atol=1e-14)
+        else:
+            assert obs[-1] == 0.0  # no observer on measured inputs
+    assert ident.observes == (source == "estimate")
+
+
+def test_minibatch_input_defaults_and_validation():
+    from simgap.identifiers import IdentifierError
+
+    assert preset("auto", "minibatch", dt=0.01).minibatch_input == "estimate"
+    for system in ("manipulator", "bicycle"):  # the thesis presets: eq. 4.2 as printed
+        assert preset(system, "minibatch").minibatch_input == "measured"
+    assert IdentifierConfig().minibatch_input == "measured"
+    with pytest.raises(IdentifierError, match="minibatch_input"):
+        IdentifierConfig(minibatch_input="x_hat")
