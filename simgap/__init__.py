@@ -6,16 +6,25 @@ Importing the package registers the Gymnasium envs ``simgap/ManipulatorFriction-
 registration does not import highway-env.
 """
 
-from importlib.metadata import PackageNotFoundError
-from importlib.metadata import version as _dist_version
+from typing import Any
 
 from simgap.envs.registration import BICYCLE_ID, MANIPULATOR_ID, register_envs
 from simgap.highway.registration import HIGHWAY_LANE_KEEPING_ID, register_highway_envs
 
-try:
-    __version__: str = _dist_version("simgap")
-except PackageNotFoundError:  # pragma: no cover - a source tree that is not installed
-    __version__ = "0+unknown"
+
+def __getattr__(name: str) -> Any:
+    """``__version__`` on first use (importlib.metadata costs ≈ 20 ms of ``import simgap``)."""
+    if name != "__version__":
+        raise AttributeError(f"module 'simgap' has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        value = version("simgap")
+    except PackageNotFoundError:  # pragma: no cover - a source tree that is not installed
+        value = "0+unknown"
+    globals()["__version__"] = value
+    return value
+
 
 register_envs()
 register_highway_envs()

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
+
+from simgap._log import error
+
 #: Root of every command's default output folder (relative to the working directory).
 REPORT_ROOT = Path("simgap-report")
 
@@ -22,3 +26,20 @@ def default_out(name: str) -> Path:
 DEMO_OUT = default_out("demo")
 #: ``simgap reproduce``'s default output folder.
 REPRODUCE_OUT = default_out("reproduce")
+
+
+def check_out(out: Path, flag: str = "--out") -> Path:
+    """Refuse an output folder that may not be written, before any work or progress bar.
+
+    One ``error:`` line (:func:`simgap._log.error`) and exit status 2 if ``out`` is a file,
+    a folder holding the user's files, the root ... (:func:`simgap.outputs.check_folder_target`);
+    the writer checks again when it moves the finished folder into place.
+    """
+    from simgap.errors import SimgapError
+    from simgap.outputs import check_folder_target
+
+    try:
+        return check_folder_target(out, flag=flag)
+    except SimgapError as exc:  # OutputError
+        error(exc)
+        raise typer.Exit(2) from None

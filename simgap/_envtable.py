@@ -13,5 +13,6 @@ BUILTIN_ENVS: dict[str, tuple[str, str, int, str | None]] = {
     "manipulator2dof": ("simgap/ManipulatorFriction-v0",
                         "simgap.envs.manipulator:ManipulatorFrictionEnv", 5000,
                         "simgap.envs.manipulator_vector:ManipulatorVectorEnv"),
-    "bicycle": ("simgap/BicycleTire-v0", "simgap.envs.bicycle:BicycleTireEnv", 3500, None),
+    "bicycle": ("simgap/BicycleTire-v0", "simgap.envs.bicycle:BicycleTireEnv", 3500,
+                "simgap.envs.bicycle_vector:BicycleVectorEnv"),
 }

@@ -1,7 +1,8 @@
 """Plain progress lines on stderr for the command line, defined once.
 
 Every line is ``[HH:MM:SS] message`` (no Rich source suffix, no colour codes), so that a log
-captured to a file reads the same as the terminal. :func:`stage` reports a step that may take
+captured to a file reads the same as the terminal; an error is one ``error: ...`` line
+(:func:`error`), never wrapped to the terminal's width. :func:`stage` reports a step that may take
 a while: once it has run for ``after`` seconds a start line, then a heartbeat line every
 ``every`` seconds (so a 30 s diagnosis is never silent), and a line with the elapsed time
 when it ends.
@@ -25,6 +26,22 @@ HEARTBEAT_S = 10.0
 def line(message: str) -> str:
     """``[HH:MM:SS] message``: the one format of every progress line."""
     return f"[{time.strftime('%H:%M:%S')}] {message}"
+
+
+def error_line(message: object) -> str:
+    """``error: message`` on one line: every run of whitespace (newlines too) becomes a space.
+
+    The one format of a command-line error (exit status 2 for bad input), whatever the
+    terminal width: never wrapped by a console, nothing after the first line dropped.
+    """
+    text = " ".join(str(message).split())
+    return f"error: {text or 'bad input'}"
+
+
+def error(message: object, stream: TextIO | None = None) -> None:
+    """Write :func:`error_line` of ``message`` to ``stream`` (default: stderr) and flush it."""
+    out = stream if stream is not None else sys.stderr
+    print(error_line(message), file=out, flush=True)
 
 
 def log(message: str, stream: TextIO | None = None) -> None:

@@ -20,7 +20,8 @@ import typer
 from typer.core import TyperGroup
 from typer.exceptions import Abort, TyperException
 
-from simgap._cli_paths import DEMO_OUT
+from simgap._cli_paths import DEMO_OUT, check_out
+from simgap._log import error
 from simgap.diagnosis import commands as diagnosis_commands
 from simgap.evaluation import commands as evaluation_commands
 
@@ -41,11 +42,10 @@ class _OneLineErrors(TyperGroup):
             if type(err).__name__ == "NoArgsIsHelpError":  # bare `simgap`: show the help
                 typer.echo(err.format_message())
             else:
-                msg = " ".join(err.format_message().split())
-                typer.echo(f"error: {msg}", err=True)
+                error(err.format_message())
             sys.exit(err.exit_code)
         except Abort:
-            typer.echo("error: aborted", err=True)
+            error("aborted")
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
 
@@ -75,15 +75,14 @@ def demo(out: Path = typer.Option(DEMO_OUT, "--out",
                                   help="Folder for the figures and index.html."),
          seed: int = typer.Option(0, help="Seed of the rollouts.")) -> None:
     """Run the main job on built-in data and write figures and index.html to OUT."""
-    if out.exists() and not out.is_dir():
-        diagnosis_commands._fail(f"{out}: exists and is not a folder")
+    check_out(out)  # a file, or a folder of the user's: one line before any work
     from simgap.demo import run_demo
     from simgap.errors import SimgapError
 
     try:
         run_demo(out, seed=seed)
     except SimgapError as err:  # e.g. --out holds the user's files (simgap.outputs)
-        typer.echo(f"error: {str(err).splitlines()[0]}", err=True)
+        error(err)
         raise typer.Exit(2) from None
 
 

@@ -11,11 +11,12 @@ reason that can be stated:
 * **motion**: if every state column is constant there is nothing to diagnose;
 * **sample period vs the model's time scale**: the nominal model is linearised at
   :data:`RATE_POINTS` rows along the recording (:func:`model_rate`, median over the rows);
-  its fastest mode |λ|max (1/s)
-  must be resolved (Nyquist: dt |λ|max < π) and not be absurdly oversampled (dt |λ|max >
-  :data:`MIN_DT_RATE`). A period outside that which lands inside once divided by 10³, 10⁶ or
-  10⁹ is named as time in ms, µs or ns. A model with no intrinsic rate (pure inertia)
-  falls back to the declared :data:`DT_RANGE`;
+  its fastest mode |λ|max (1/s) must be resolved (Nyquist: dt |λ|max < π) and not be
+  absurdly oversampled (dt |λ|max > :data:`MIN_DT_RATE`). A period outside that which lands
+  inside once divided by 10³, 10⁶ or 10⁹ is named as time in ms, µs or ns if the recording
+  read so still spans :data:`MIN_SPAN` time constants (a period only slightly too long gets
+  no unit guess). A model with no intrinsic rate (pure inertia) falls back to the declared
+  :data:`DT_RANGE`;
 * **kinematic consistency** (mechanical systems with q and dq columns): the recorded
   velocity must be the time derivative of the recorded position; the least-squares ratio
   dq / (dq/dt) names degrees (57.3), ms time (10³) or a flipped sign (−1);
@@ -30,10 +31,13 @@ reason that can be stated:
 * **unit hypotheses through the model** (bicycle, after filtering): vx enters the lateral
   dynamics through the frame rotation −vx r and the slip angles, so a speed logged in km/h
   (or mph) at any speed makes the nominal model explain the recorded (dvy, dr) far worse
-  than the same log read in m/s. :func:`check_unit_hypotheses` compares the share of the
-  recorded derivative the model leaves unexplained as recorded and under each candidate unit,
-  and names the unit when it explains the data :data:`HYPOTHESIS_GAIN` × better (and leaves
-  under :data:`HYPOTHESIS_FIT` unexplained). On every generated m/s log tried (8–30 m/s,
+  than the same log read in m/s. Every column the model reads in m/s is under test (vx and
+  the states the adapter declares in m/s, i.e. vy, whose derivative scales with it), each
+  subset of them in each candidate unit: a logger writes vx and vy in km/h together.
+  :func:`check_unit_hypotheses` compares the share of the recorded derivative the model
+  leaves unexplained as recorded and under each reading, and names the columns and unit
+  when one explains the data :data:`HYPOTHESIS_GAIN` × better (and leaves under
+  :data:`HYPOTHESIS_FIT` unexplained). On every generated m/s log tried (8–30 m/s,
   with and without missing tire physics) both wrong readings were worse than the right one,
   so the test did not fire on a correct log; strong missing physics at low speed (tire
   saturation μ = 0.6 or a 0.1 s steering lag at 8 m/s) can hide a km/h log from it, since
@@ -51,6 +55,7 @@ Every failure raises :class:`~simgap.errors.RecordingError` (recordings) or
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -68,6 +73,9 @@ DT_RANGE = (1e-5, 0.5)
 #: Below this dt |λ|max a recording has over 10⁵ samples per fastest time constant: a
 #: time column in the wrong unit, not a real sample rate.
 MIN_DT_RATE = 1e-5
+#: A time unit (ms, µs) is suggested only if the recording read in it still spans this many
+#: time constants of the model's fastest mode.
+MIN_SPAN = 20.0
 #: Rows along the recording at which the nominal model is linearised (median rate).
 RATE_POINTS = 9
 #: Nyquist: a mode of rate |λ| (1/s) needs dt |λ| < π to be resolved at all.
@@ -200,7 +208,9 @@ def check_sample_period(name: str, t: np.ndarray, time: str = "t",
 
     With a rate the plausible periods are MIN_DT_RATE/rate .. π/rate (resolved at all, not
     absurdly oversampled); without one, :data:`DT_RANGE`. A period that lands inside once
-    divided by 10³, 10⁶ or 10⁹ is named as ms, µs or ns.
+    divided by 10³, 10⁶ or 10⁹ is named as ms, µs or ns, provided the recording read in
+    that unit still spans :data:`MIN_SPAN` time constants 1/rate; otherwise (e.g. a period
+    only slightly too long) no unit is guessed.
     """
     dt = float(np.median(np.diff(t)))
     if rate:
@@ -213,8 +223,12 @@ def check_sample_period(name: str, t: np.ndarray, time: str = "t",
     if lo <= dt <= hi:
         return
     hint = ""
+    span = float(t[-1] - t[0])
     for f, unit in ((1e3, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds")):
-        if lo <= dt / f <= hi:
+        # read in that unit the period must fit, and the recording still span MIN_SPAN
+        # time constants (a slightly too long period is not ms: ÷1000 would leave a
+        # recording far too short to show the model's dynamics)
+        if lo <= dt / f <= hi and (not rate or span / f * rate >= MIN_SPAN):
             hint = f"; is {time!r} in {unit}? (convert it to seconds)"
             break
     raise RecordingError(f"{name}: column {time!r}: median sample period {dt:.3g} s is "
@@ -228,33 +242,42 @@ def unexplained(measured: np.ndarray, predicted: np.ndarray) -> float:
     return float(np.mean(np.sqrt(num / den)))
 
 
-def check_unit_hypotheses(name: str, column: str, unit: str,
+def check_unit_hypotheses(name: str, columns: Sequence[str], unit: str,
                           hypotheses: Sequence[tuple[float, str]],
-                          misfit: Callable[[float], float]) -> None:
-    """Name a column's unit when the nominal model explains the data far better in it.
+                          misfit: Callable[[float, tuple[str, ...]], float]) -> None:
+    """Name the unit of some columns when the nominal model explains the data far better in it.
+
+    Every non-empty subset of ``columns`` is read in every candidate unit (a log may hold
+    one speed in km/h, or all of them), and the best reading is compared with the recording
+    as it is.
 
     Args:
         name: recording name.
-        column: the column under test.
-        unit: the SI unit the model reads it in (e.g. ``"m/s"``).
+        columns: the columns the model reads in ``unit`` (e.g. every speed column).
+        unit: the SI unit the model reads them in (e.g. ``"m/s"``).
         hypotheses: (factor to the SI unit, unit name) of each candidate unit.
-        misfit: share of the recorded derivative the nominal model leaves unexplained when
-            the column is multiplied by the factor (:func:`unexplained`); 1.0 = as recorded.
+        misfit: ``misfit(f, cols)`` is the share of the recorded derivative the nominal model
+            leaves unexplained when the columns ``cols`` are multiplied by ``f``
+            (:func:`unexplained`); ``misfit(1.0, ())`` is the recording as it is.
 
     Raises:
-        RecordingError: a candidate unit leaves :data:`HYPOTHESIS_GAIN` × less unexplained
-            than the recording as it is, and at most :data:`HYPOTHESIS_FIT`.
+        RecordingError: a reading leaves :data:`HYPOTHESIS_GAIN` × less unexplained than
+            the recording as it is, and at most :data:`HYPOTHESIS_FIT`.
     """
-    base = misfit(1.0)
+    base = misfit(1.0, ())
     if not math.isfinite(base):
         return
-    scored = [(misfit(f), f, what) for f, what in hypotheses]
-    best, f, what = min(scored, key=lambda s: s[0] if math.isfinite(s[0]) else math.inf)
+    subsets = [sub for k in range(1, len(columns) + 1)
+               for sub in itertools.combinations(tuple(columns), k)]
+    scored = [(misfit(f, sub), f, what, sub) for sub in subsets for f, what in hypotheses]
+    best, f, what, sub = min(scored, key=lambda s: s[0] if math.isfinite(s[0]) else math.inf)
     if math.isfinite(best) and best <= HYPOTHESIS_FIT and best * HYPOTHESIS_GAIN <= base:
-        raise RecordingError(f"{name}: column {column!r}: the nominal model leaves "
-                             f"{base:.0%} of the recorded motion unexplained reading it in "
-                             f"{unit}, {best:.0%} reading it in {what}; likely {what} — "
-                             f"convert to {unit} (× {f:.4g}, i.e. ÷ {1 / f:.4g})")
+        which = ("column " if len(sub) == 1 else "columns ") + ", ".join(map(repr, sub))
+        it = "it" if len(sub) == 1 else "them"
+        raise RecordingError(f"{name}: {which}: the nominal model leaves {base:.0%} of the "
+                             f"recorded motion unexplained reading {it} in {unit}, {best:.0%} "
+                             f"reading {it} in {what}; likely {what} — convert to {unit} "
+                             f"(× {f:.4g}, i.e. ÷ {1 / f:.4g})")
 
 
 def _ratio(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -428,7 +451,14 @@ def check_prepared(rec: Any, system: Any, prepared: Any) -> None:
     sig = getattr(prepared, "signals", None)
     if sig is not None and {"vy", "r", "dvy", "dr", "vx", "delta_f"} <= set(sig) \
             and hasattr(getattr(system, "params", None), "C_af"):
-        check_speed_unit(rec.name, sig, system.params, system.columns.vx)
+        from simgap.models.bicycle import STATE_NAMES, STATE_UNITS
+
+        cols = system.columns  # the model's m/s signals: vx, and the states declared in m/s
+        names = getattr(system, "state_names", STATE_NAMES)
+        units = getattr(system, "state_units", STATE_UNITS)
+        speeds = {"vx": cols.vx} | {k: c for k, c, unit in zip(names, cols.q, units,
+                                                               strict=True) if unit == "m/s"}
+        check_speed_unit(rec.name, sig, system.params, speeds)
         return
     inverse = getattr(system, "inverse_dynamics", None)
     if sig is None or inverse is None or "ddq" not in sig:
@@ -437,18 +467,30 @@ def check_prepared(rec: Any, system: Any, prepared: Any) -> None:
                  system.columns.u)
 
 
-def check_speed_unit(name: str, sig: Mapping[str, np.ndarray], params: Any, column: str) -> None:
-    """Bicycle: is the speed column in m/s? (vx in −vx r and the slip angles, eq. 2.7)."""
+def check_speed_unit(name: str, sig: Mapping[str, np.ndarray], params: Any,
+                     speeds: Mapping[str, str]) -> None:
+    """Bicycle: are the speed columns in m/s? (vx in −vx r and the slip angles, eq. 2.7).
+
+    Args:
+        name: recording name.
+        sig: the adapter's filtered signals (``vx``, ``vy``, ``r``, ``dvy``, ``dr``,
+            ``delta_f``, ``delta_r``).
+        params: the nominal :class:`~simgap.models.bicycle.BicycleParams`.
+        speeds: every signal the model reads in m/s → its recording column (``vx`` and
+            the m/s states, e.g. ``{"vx": "vx", "vy": "vy"}``); each subset is tested.
+    """
     from simgap.models.bicycle import MIN_VX, state_derivative
 
-    x = np.stack([sig["vy"], sig["r"]], axis=1)
+    column_of = {c: k for k, c in speeds.items()}
     u = np.stack([sig["delta_f"], sig.get("delta_r", np.zeros_like(sig["delta_f"]))], axis=1)
-    dx = np.stack([sig["dvy"], sig["dr"]], axis=1)
 
-    def misfit(f: float) -> float:
-        vx = sig["vx"] * f
+    def misfit(f: float, cols: tuple[str, ...]) -> float:
+        g = {column_of[c]: f for c in cols}
+        vx = sig["vx"] * g.get("vx", 1.0)
         if np.any(vx <= MIN_VX):
             return math.nan  # the model is not defined at this speed: no evidence
+        x = np.stack([sig["vy"] * g.get("vy", 1.0), sig["r"] * g.get("r", 1.0)], axis=1)
+        dx = np.stack([sig["dvy"] * g.get("vy", 1.0), sig["dr"] * g.get("r", 1.0)], axis=1)
         return unexplained(dx, state_derivative(x, u, params, vx))
 
-    check_unit_hypotheses(name, column, "m/s", SPEED_UNITS, misfit)
+    check_unit_hypotheses(name, tuple(speeds.values()), "m/s", SPEED_UNITS, misfit)

@@ -274,8 +274,9 @@ def make_case(category: str, rng: np.random.Generator, i: int) -> Case:  # noqa:
         return diag(raw.replace(b"\n", b"\r\n"))
     if category == "api_actions":
         env_id = str(rng.choice(["simgap/ManipulatorFriction-v0", "simgap/BicycleTire-v0",
-                                 "simgap/PacejkaLaneKeeping-v0"]))
-        kind = int(rng.integers(9))
+                                 "simgap/PacejkaLaneKeeping-v0",
+                                 "simgap/YawRateResidualRL-v0"]))
+        kind = int(rng.integers(12))
         return Case(category, f"{category}-{i}", api=lambda _d: _env_case(env_id, kind, sub))
     kind = int(rng.integers(8))
     return Case(category, f"{category}-{i}", api=lambda d: _identifier_case(d, kind, sub),
@@ -299,10 +300,13 @@ def _env_case(env_id: str, kind: int, rng: np.random.Generator) -> str:
     env.reset(seed=int(rng.integers(100)))
     bad = [None, 0.1, "left", np.zeros((1, *shape)), np.zeros(shape, dtype=int),
            np.zeros(shape, dtype=complex), np.full(shape, np.nan), [[0.0] * shape[0]],
-           None][kind]
+           None, np.zeros(shape, dtype=bool), np.full(shape, -np.inf),
+           np.zeros((3, 1), dtype=object)][kind]
     for _ in range(3):
         a = rng.uniform(-2, 2, shape).astype(np.float32) if bad is None else bad
         obs = env.step(a)[0]
+        if bad is not None:  # every listed bad action must be refused (an EnvError)
+            raise AssertionError(f"{env_id} accepted the bad action {a!r:.60}")
         state = obs["state"] if isinstance(obs, dict) else obs
         if not np.all(np.isfinite(np.asarray(state, dtype=float))):
             raise AssertionError(f"non-finite observation after action {a!r}")

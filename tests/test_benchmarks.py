@@ -87,10 +87,11 @@ def test_bench_vector_quick(tmp_path):
     res = _run("bench_vector.py", "--ns", "1,4", "--repeats", "1", "--budget", "0.01",
                "--fresh", "1", "--out", str(out))
     assert json.loads(out.read_text()) == res
-    row = res["vector"]["manipulator"]["4"]
-    for key in ("native_bare", "native_wrapped", "sync_bare", "sync_wrapped"):
-        assert row[key] > 0 and row[f"{key}_cpu"] > 0
-    assert row["ratio_native_over_sync_bare"] > 0
+    for system in ("manipulator", "bicycle"):
+        row = res["vector"][system]["4"]
+        for key in ("native_bare", "native_wrapped", "sync_bare", "sync_wrapped"):
+            assert row[key] > 0 and row[f"{key}_cpu"] > 0
+        assert row["ratio_native_over_sync_bare"] > 0
     assert res["single"]["manipulator"]["bare_steps_per_s"] > 0
     fresh = res["fresh"]["manipulator"]
     assert all(fresh[k] > 0 for k in ("import_s", "make_s", "reset_s", "first_step_s"))

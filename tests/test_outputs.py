@@ -120,6 +120,34 @@ def test_reproduce_and_demo_refuse_a_folder_with_user_files(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.parametrize("args", [["reproduce", "--case", "2-1", "--quick"],
+                                  ["reproduce", "--seeds", "0", "--case", "2-1", "--quick"],
+                                  ["demo"], ["diagnose", "{out}/missing.csv", "--model",
+                                             "bicycle"]])
+def test_cli_errors_are_one_line_at_any_terminal_width(tmp_path, args):
+    """A long error (a long --out path) is one stderr line on a 40-column terminal: never
+    wrapped by a rich console, no blank or progress-bar lines around it."""
+    out = tmp_path / ("a-rather-long-folder-name-" * 4)
+    out.mkdir()
+    (out / "keep.txt").write_text("keep")
+    before = snapshot(tmp_path)
+    res = runner.invoke(app, [a.format(out=out) for a in args] + ["--out", str(out)],
+                        env={"COLUMNS": "40"})
+    assert res.exit_code == 2, (res.output, res.exception)
+    assert res.stdout == ""
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.stderr
+    assert len(lines[0]) > 120  # long enough that a 40-column console would wrap it
+    assert snapshot(tmp_path) == before
+
+
+def test_error_line_joins_every_line():
+    from simgap._log import error_line
+
+    assert error_line("a:\n  b  c\n") == "error: a: b c"
+    assert error_line("") == "error: bad input"
+
+
 def test_output_folder_leaves_nothing_on_failure(tmp_path):
     with pytest.raises(RuntimeError), output_folder(tmp_path / "r", kind="test") as tmp:
         (tmp / "half.txt").write_text("x")

@@ -36,6 +36,7 @@ import gymnasium as gym
 import numpy as np
 
 from simgap.control.compensation import YawRateController
+from simgap.envs._common import check_reset, prepare_action
 from simgap.envs.bicycle import BicycleTireEnv
 from simgap.envs.registration import RL_TASK_ID  # noqa: F401 (re-exported: the task id)
 from simgap.envs.scenarios import YawRateReference
@@ -190,6 +191,9 @@ class ResidualSteering(gym.Wrapper):
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self._obs = np.zeros(2)
         self._t = 0.0
+        self._was_reset = False
+        self._low = np.full(1, -1.0)
+        self._high = np.full(1, 1.0)
 
     def _observe(self, obs: Any, t: float) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float64).reshape(-1)
@@ -204,11 +208,20 @@ class ResidualSteering(gym.Wrapper):
         obs, info = self.env.reset(**kwargs)
         self._obs = np.asarray(obs, dtype=np.float64).reshape(-1)[:2]
         self._t = 0.0
+        self._was_reset = True
         return self._observe(obs, 0.0), info
 
     def step(self, action: Any) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
-        """Apply δ_inv + scale·a on the front axle."""
-        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], -1.0, 1.0))
+        """Apply δ_inv + scale·a on the front axle.
+
+        Raises:
+            EnvError: ``step`` before ``reset``, or an action that is not a finite real float
+                array of shape (1,) (checked as every simgap env checks its action; nothing
+                advances). A finite action outside [−1, 1] is clipped.
+        """
+        check_reset(self._was_reset, RL_TASK_ID)
+        a = float(prepare_action(action, self._low, self._high,
+                                 "normalised residual steering in [-1, 1]")[0])
         base = self.controller(self._obs, self._t)
         delta = np.array([base[0] + self.scale * a, 0.0])
         obs, reward, terminated, truncated, info = self.env.step(delta)

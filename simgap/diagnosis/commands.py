@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import NoReturn
 
 import typer
 
+from simgap._log import error
 from simgap.errors import SimgapError
 from simgap.outputs import check_file_target, check_folder_target, output_files
 
@@ -23,8 +25,9 @@ EXIT_SOME_FAILED = 1
 DIAGNOSE_BATCH_OUT = Path("simgap-report") / "diagnose"
 
 
-def _fail(msg: str) -> None:
-    typer.echo(f"error: {msg.splitlines()[0] if msg else 'bad input'}", err=True)
+def _fail(msg: str) -> NoReturn:
+    """One ``error:`` line on stderr (:func:`simgap._log.error`), exit status 2."""
+    error(msg)
     raise typer.Exit(EXIT_BAD_INPUT)
 
 

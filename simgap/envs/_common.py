@@ -57,14 +57,24 @@ def check_action(action: object, shape: tuple[int, ...], what: str) -> np.ndarra
     return a
 
 
+def one_line(value: object, width: int = 60) -> str:
+    """``repr(value)`` on one line, cut to ``width`` characters ("..." when longer).
+
+    Runs of whitespace, newlines included, become one space.
+    """
+    text = " ".join(repr(value).split())
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
 def _float_array(action: object, shape: tuple[int, ...], what: str) -> np.ndarray:
     """The action as an array of real floating dtype and exact ``shape`` (not copied)."""
     try:
         a = np.asarray(action)
     except Exception as err:  # ragged lists and the like
-        raise EnvError(f"action {action!r:.60}: not an array of {what} ({err})") from None
+        raise EnvError(f"action {one_line(action)}: not an array of {what} "
+                       f"({' '.join(str(err).split())})") from None
     if a.dtype.kind != "f":
-        raise EnvError(f"action {action!r:.60} has dtype {a.dtype}; expected real floating-"
+        raise EnvError(f"action {one_line(action)} has dtype {a.dtype}; expected real floating-"
                        f"point {what} of shape {shape} (e.g. numpy float32/float64)")
     if a.shape != shape:
         raise EnvError(f"action must have shape {shape} ({what}), got shape {a.shape}")
@@ -72,8 +82,8 @@ def _float_array(action: object, shape: tuple[int, ...], what: str) -> np.ndarra
 
 
 def _not_finite(a: np.ndarray, what: str) -> None:
-    raise EnvError(f"action contains NaN or inf: {a.astype(np.float64)!r} ({what}); the step "
-                   f"was not taken")
+    raise EnvError(f"action contains NaN or inf: {one_line(a.astype(np.float64), 120)} ({what}); "
+                   f"the step was not taken")
 
 
 def prepare_action(action: object, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:

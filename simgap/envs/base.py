@@ -26,6 +26,7 @@ class PlantEnv(gym.Env):
     plant_schema: PlantSchema
     _plant: Plant
     _theta: np.ndarray
+    _theta_params: tuple[float, ...]
 
     # ------------------------------------------------------------------ the one plant
     @property
@@ -46,6 +47,9 @@ class PlantEnv(gym.Env):
         self._check_plant(plant)
         self._plant = plant
         self._theta = plant.array
+        # the same parameters as a tuple of floats for the step kernels: numba then holds
+        # them as values instead of reloading them from an array (1.2-1.5x faster, same bits)
+        self._theta_params = tuple(self._theta.tolist())
 
     def _check_plant(self, plant: Plant) -> None:
         """Subclasses reject plants the env cannot run (e.g. another speed)."""

@@ -168,7 +168,7 @@ class BicycleTireEnv(PlantEnv):
         self._init_plant(2, 6, -self.steer_limit, self.steer_limit.copy())
 
     def _info(self, g: np.ndarray, t: float, r_ref: float, u: np.ndarray) -> dict[str, Any]:
-        delta = self._k_inv @ g
+        delta = self.nominal_model.physical_residual(None, g)
         return {"t": t, "r_ref": r_ref, "residual_true": g,
                 "axle_force_residual_true": delta, "physical_residual_true": delta.copy(),
                 "applied_action": u}

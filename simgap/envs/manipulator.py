@@ -134,6 +134,7 @@ class ManipulatorFrictionEnv(PlantEnv):
 
         # Precomputed kernel arrays (the hot path allocates nothing it does not return).
         self._la_nom = np.ascontiguousarray(self.nominal_params.array)
+        self._la_nom_params = tuple(self._la_nom.tolist())  # for the step kernel
         sample = getattr(self.reference, "sample", None)
         self._ref_sample = sample if sample is not None \
             else partial(_sample_reference, self.reference)
@@ -168,8 +169,8 @@ class ManipulatorFrictionEnv(PlantEnv):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply joint torques (N·m) for dt seconds."""
         u = self._action(action, "joint torques (N·m)")
-        s_new, g, tau = transition(self._s, u, self._theta, self._la_nom, self.dt,
-                                   self.n_substeps)
+        s_new, g, tau = transition(self._s, u, self._theta_params, self._la_nom_params,
+                                   self.dt, self.n_substeps)
         self._s = s_new
         self._last_u = u
         self._k += 1

@@ -152,8 +152,8 @@ class ManipulatorVectorEnv(NativeVectorEnv):
         out = self._new_outputs()
         steps = -1 if self.max_episode_steps is None else self.max_episode_steps
         vector_step(self._s, self._k, actions, rows, self._noise, self._low, self._high,
-                    env._theta, env._la_nom, env.dt, env.n_substeps, self._ref_p, 2.0,
-                    env.max_speed, steps, *out)
+                    self._plant_params(), env._la_nom_params, env.dt, env.n_substeps,
+                    self._ref_p, 2.0, env.max_speed, steps, *out)
         obs, rew, term, trunc, t, ref, g, tau, u = out
         info = self._masks({"t": t, "reference": ref, "residual_true": g,
                             "physical_residual_true": tau, "applied_action": u})

@@ -426,4 +426,15 @@ class YawRateReference:
 
     def __call__(self, t: float) -> float:
         """Return the reference yaw rate (rad/s) at time t (s)."""
-        return self.amplitude * math.sin(2.0 * math.pi * t / self.period)
+        return yaw_rate_entries(float(t), self.amplitude, self.period)
+
+
+@njit(cache=True, inline="always")
+def yaw_rate_entries(t, amplitude, period):  # pragma: no cover - compiled
+    """:class:`YawRateReference` at time t (s): amplitude·sin(2π t/period) (rad/s).
+
+    Compiled (the native vector env calls it per row); numba's ``sin`` is libm's, as
+    Python's ``math.sin``, so a call from Python equals the plain-Python formula bit for bit
+    (``tests/envs/test_vector_native.py`` checks it).
+    """
+    return amplitude * math.sin(2.0 * math.pi * t / period)

@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from simgap._cli_paths import REPRODUCE_OUT
+from simgap._cli_paths import REPRODUCE_OUT, check_out
+from simgap._log import error
 
 
 def register(app: typer.Typer) -> None:
@@ -44,9 +45,9 @@ def register(app: typer.Typer) -> None:
         from simgap.evaluation.choices import CASE_CHOICES
 
         if case not in CASE_CHOICES:  # before the seconds of numerical imports
-            typer.echo(f"error: --case must be one of {list(CASE_CHOICES)}, got {case!r}",
-                       err=True)
+            error(f"--case must be one of {list(CASE_CHOICES)}, got {case!r}")
             raise typer.Exit(2)
+        check_out(out)  # before the progress bar: a refused --out is the only line
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -67,11 +68,12 @@ def register(app: typer.Typer) -> None:
 
             try:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
-                          progress=progress, log=lambda m: bar.console.print(line(m), markup=False,
-                                                                highlight=False))
+                          progress=progress,
+                          log=lambda m: bar.console.print(line(m), markup=False, highlight=False,
+                                                          soft_wrap=True))
             except SimgapError as exc:  # EvaluationError, OutputError
                 bar.stop()
-                console.print(f"error: {exc}", style="red", markup=False)
+                error(exc)  # one plain line, never wrapped to the console's width
                 raise typer.Exit(2) from None
         for path in res["files"]:
             log(f"wrote {path}")
@@ -80,21 +82,20 @@ def register(app: typer.Typer) -> None:
 def _sweep(out: Path, seeds: str, case: str, quick: bool, jobs: int,
            ray: bool | str) -> None:
     """``reproduce --seeds``: every (seed, case) as one job, then OUT/summary.{json,md}."""
-    from rich.console import Console
-
     from simgap._log import log
     from simgap.errors import SimgapError
     from simgap.evaluation.sweep import parse_cases, reproduce_sweep
+    from simgap.outputs import check_folder_target
     from simgap.sweeps import parse_seeds, progress_bar
 
-    console = Console(stderr=True)
     try:
         seed_list, cases = parse_seeds(seeds), parse_cases(case)
+        check_folder_target(out)  # before the progress bar: the error is the only line
         with progress_bar(len(seed_list) * len(cases)) as tick:
             res = reproduce_sweep(out, seeds=seed_list, cases=cases, quick=quick, jobs=jobs,
                                   ray=ray or None, progress=tick)
     except SimgapError as exc:
-        console.print(f"error: {exc}", style="red", markup=False)
+        error(exc)
         raise typer.Exit(2) from None
     for f in res["failed"]:
         log(f"failed: case {f['case']} seed {f['seed']}: {f['error']}")

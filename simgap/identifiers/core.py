@@ -47,6 +47,11 @@ HEADER_FIELDS: dict[str, int] = {
 #: a loaded state must carry exactly these values.
 FIXED_SLOTS: np.ndarray = np.array(sorted(
     {*HEADER_FIELDS.values(), K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE}), dtype=np.int64)
+#: What each fixed header slot holds (meta field or config field), for error messages.
+_SLOT_NAMES: dict[int, str] = {
+    **{slot: f"config {name}" for name, slot in HEADER_FIELDS.items()},
+    K.HP_DT: "dt", K.HP_N: "n_states", K.HP_M: "n_inputs", K.HP_MODE: "the kind's code",
+    K.HP_ESCALE: "the error scale c_e"}
 #: Header size of format 2 files (before ``HP_SRATE``; no scale block at the row end).
 _HP_SIZE_V2 = 20
 
@@ -410,8 +415,10 @@ class IdentifierBase:
         hp = np.asarray(arrays["state"])[:, :K.HP_SIZE]
         fixed = FIXED_SLOTS
         if not np.array_equal(hp[:, fixed], np.broadcast_to(self._hp[fixed], hp[:, fixed].shape)):
-            raise IdentifierError(f"{source}: array 'state' holds hyper-parameters that differ "
-                                  f"from its config")
+            slot = int(fixed[np.argmax(np.any(hp[:, fixed] != self._hp[fixed], axis=0))])
+            raise IdentifierError(f"{source}: array 'state' holds {_SLOT_NAMES[slot]} = "
+                                  f"{float(hp[0, slot])!r:.24} in its header, the meta/config "
+                                  f"{float(self._hp[slot])!r:.24}")
         self._persistent()[:] = arrays["state"]
         self._buf[:] = arrays["buffer"]
         self._cnt[:] = arrays["counters"]

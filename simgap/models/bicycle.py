@@ -139,16 +139,29 @@ def body_derivative(vy, r, fyf, fyr, vx, pa):  # pragma: no cover - compiled
     return (fyf + fyr) / pa[M] - vx * r, (pa[LF] * fyf - pa[LR] * fyr) / pa[IZ]
 
 
+@njit(cache=True, inline="always")
+def nominal_entries(vy, r, u1, u2, theta):  # pragma: no cover - compiled
+    """Nominal (dvy/dt, dr/dt) = A x + B u (linear tires) on scalars; theta = params + [vx]."""
+    vx = theta[VX]
+    af, ar = slip_angles(vy, r, u1, u2, vx, theta[LF], theta[LR])
+    return body_derivative(vy, r, linear_force(af, theta[C_AF]),
+                           linear_force(ar, theta[C_AR]), vx, theta)
+
+
 @njit(cache=True)
 def nominal_derivative(x, u, theta):  # pragma: no cover - compiled
     """Nominal f(x, u) = A x + B u (linear tires); theta = params array + [vx]."""
-    vx = theta[VX]
-    af, ar = slip_angles(x[0], x[1], u[0], u[1], vx, theta[LF], theta[LR])
-    dvy, dr = body_derivative(x[0], x[1], linear_force(af, theta[C_AF]),
-                              linear_force(ar, theta[C_AR]), vx, theta)
     out = np.empty(2)
-    out[0] = dvy
-    out[1] = dr
+    out[0], out[1] = nominal_entries(x[0], x[1], u[0], u[1], theta)
+    return out
+
+
+@njit(cache=True)
+def nominal_derivatives(x, u, theta):  # pragma: no cover - compiled
+    """:func:`nominal_derivative` of every row of x (N, 2), u (N, 2): (N, 2)."""
+    out = np.empty((x.shape[0], 2))
+    for i in range(x.shape[0]):
+        out[i, 0], out[i, 1] = nominal_entries(x[i, 0], x[i, 1], u[i, 0], u[i, 1], theta)
     return out
 
 
@@ -247,12 +260,19 @@ def true_residual_vs(s, u, theta, theta_nom):  # pragma: no cover - compiled
     Like :func:`true_residual`, but the nominal f uses ``theta_nom`` = nominal params array
     + [vx], for plants whose vehicle parameters differ from the nominal ones.
     """
-    d = plant_derivative(s, u, theta)
-    f = nominal_derivative(s[:2], u, theta_nom)
     out = np.empty(2)
-    out[0] = d[0] - f[0]
-    out[1] = d[1] - f[1]
+    out[0], out[1] = residual_entries(s[0], s[1], s[2], s[3], s[4], s[5], u[0], u[1], theta,
+                                      theta_nom)
     return out
+
+
+@njit(cache=True, inline="always")
+def residual_entries(s0, s1, s2, s3, s4, s5, u1, u2, theta,
+                     theta_nom):  # pragma: no cover - compiled
+    """:func:`true_residual_vs` on scalars: (g_vy, g_r) in m/s², rad/s²."""
+    d0, d1, _, _, _, _ = _derivative(s0, s1, s2, s3, s4, s5, u1, u2, theta)
+    f0, f1 = nominal_entries(s0, s1, u1, u2, theta_nom)
+    return d0 - f0, d1 - f1
 
 
 @njit(cache=True)
@@ -263,6 +283,25 @@ def true_residual(s, u, theta):  # pragma: no cover - compiled
     the spec's plant (same parameters) this is K·Delta with Delta the tire-force deviation.
     """
     return true_residual_vs(s, u, theta, theta)
+
+
+@njit(cache=True, inline="always")
+def axle_force_entries(g_vy, g_r, k_inv):  # pragma: no cover - compiled
+    """Axle-force deviations (Delta_f, Delta_r) = K⁻¹ g (N) from g = (g_vy, g_r) (m/s², rad/s²)."""
+    return k_inv[0, 0] * g_vy + k_inv[0, 1] * g_r, k_inv[1, 0] * g_vy + k_inv[1, 1] * g_r
+
+
+@njit(cache=True)
+def axle_force_rows(g, k_inv):  # pragma: no cover - compiled
+    """:func:`axle_force_entries` of every row of g (N, 2): Delta (N, 2) in N.
+
+    Written out rather than a BLAS product, whose matrix-vector and matrix-matrix kernels
+    round differently: one row and many rows give the same bits (single and vector envs).
+    """
+    out = np.empty((g.shape[0], 2))
+    for i in range(g.shape[0]):
+        out[i, 0], out[i, 1] = axle_force_entries(g[i, 0], g[i, 1], k_inv)
+    return out
 
 
 def plant_array(params: BicycleParams, vx: float, *, tire: MagicFormulaTire | None = None,
@@ -376,9 +415,20 @@ class BicycleNominal(BaseNominalModel):
         return nominal_derivative(np.asarray(x, dtype=np.float64),
                                   np.asarray(u, dtype=np.float64), self._theta)
 
+    def states(self, obs: np.ndarray) -> np.ndarray:
+        """:meth:`state` of every row of ``obs`` (N, 2): a float64 copy (no per-row calls)."""
+        return np.array(obs, dtype=np.float64)
+
+    def f_rows(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """:meth:`f` of every row of x (N, 2), u (N, 2) in one kernel call."""
+        return nominal_derivatives(np.ascontiguousarray(x, dtype=np.float64),
+                                   np.ascontiguousarray(u, dtype=np.float64), self._theta)
+
     def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """State residual g (…, 2) → axle force deviations Delta = K⁻¹ g (N)."""
-        return np.asarray(g, dtype=np.float64) @ self.K_inv.T
+        g = np.asarray(g, dtype=np.float64)
+        rows = np.ascontiguousarray(g.reshape(-1, 2))
+        return axle_force_rows(rows, self.K_inv).reshape(g.shape)
 
     def with_speed(self, vx: float) -> BicycleNominal:
         """The same model at another longitudinal speed (m/s)."""

@@ -441,6 +441,8 @@ def transition(s, u, theta, la_nom, dt, n_sub):  # pragma: no cover - compiled
 
     Equal bit for bit to :func:`plant_step`, :func:`true_residual` and :func:`tau_d` called
     one by one; disk-cached (``cache=True``), so a fresh process does not recompile it.
+    ``theta`` and ``la_nom`` may be the arrays or tuples of their floats (the env passes
+    tuples, which numba keeps as values: faster, the same bits).
     """
     s_new = np.empty(4)
     g = np.zeros(4)
