@@ -121,6 +121,11 @@ class _Plan:
     velocity_from_q: bool
 
 
+def _quantised(m: Any) -> bool:
+    """Whether a column's error model is dominated by its quantisation (floor q/√12)."""
+    return bool(m.quantum) and any("quantised" in n for n in m.notes)
+
+
 def _held(u: np.ndarray, hold: str) -> np.ndarray:
     if hold != "zoh":
         return u
@@ -377,12 +382,16 @@ class MechanicalSystem:
         models = error_models(raw, grid.segment)
         from_q = not c.dq
         if c.dq:
-            bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True) if models[v].heavy_tailed]
+            # the angle's derivative is a remedy only when the angle's own error is modelled
+            # (white or quantised): when it too shows unmodelled heavy tails (both columns
+            # filtered, or interpolated timing errors of a jittered log) the recorded
+            # velocity is kept; both columns are reported by the error model's notes.
+            bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True) if models[v].heavy_tailed
+                   and not (models[p].heavy_tailed and not _quantised(models[p]))]
             if bad:
                 from_q = True
                 warn += [(f"{v} is quantised (step {models[v].quantum:.4g}, a finite "
-                          "difference?)" if models[v].quantum and models[v].notes and
-                          "quantised" in models[v].notes[0] else
+                          "difference?)" if _quantised(models[v]) else
                           f"{v} looks filtered upstream (kurtosis of its third differences "
                           f"{models[v].kurtosis:.3g}, white noise gives 3)") +
                          f"; differentiating {p} instead" for v, p in bad]
