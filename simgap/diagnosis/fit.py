@@ -39,7 +39,10 @@ independent held-out sample: the same test, :meth:`Fitter._confirm`) unless that
 no information about it; a validation gain that does not replicate is not named. When a
 term with a different physical meaning is nearly as good (:data:`ALIAS_GAIN`) and its
 held-out contribution is strongly correlated with the chosen one (:data:`ALIAS_CORR`), the
-pair is reported as a collinearity warning.
+pair is reported as a collinearity warning; when the outer test part separates the pair
+(the alternative significantly better there by the same test), the alternative is named
+instead (:meth:`Fitter._separate_aliases`): the selection's pick between two hypotheses that
+explain the same validation residual is noise, not evidence.
 
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower

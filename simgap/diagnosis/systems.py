@@ -396,6 +396,9 @@ class MechanicalSystem:
                           f"{models[v].kurtosis:.3g}, white noise gives 3)") +
                          f"; differentiating {p} instead" for v, p in bad]
         noise = noise_of(models, warn, c.q if from_q else c.dq)
+        if from_q and c.dq:  # a replaced column: its one line says so, not its model's note
+            warn = [w for w in warn if not any(w in models[v].notes for v in c.dq
+                                               if models[v].heavy_tailed)]
         if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
             noise = {k: noise_std(v) for k, v in raw.items()}
             from_q = not c.dq
