@@ -98,6 +98,9 @@ def compare(system: Any, prepared: Prepared, effects: Sequence[tuple], t_split: 
         der[label] = [float(v) for v in np.sqrt(np.mean((pred - meas) ** 2, axis=0))]
     steps = max(1, int(round(horizon / dt)))
     starts = np.arange(test[0], test[-1] - steps, steps)
+    segment = prepared.segment
+    if segment is not None and len(starts):  # a rollout never runs across a time gap
+        starts = starts[segment[starts] == segment[np.minimum(starts + steps, len(t) - 1)]]
     if len(starts) == 0:
         starts = np.array([test[0]])
         steps = max(1, len(test) - 2)

@@ -39,7 +39,10 @@ independent held-out sample: the same test, :meth:`Fitter._confirm`) unless that
 no information about it; a validation gain that does not replicate is not named. When a
 term with a different physical meaning is nearly as good (:data:`ALIAS_GAIN`) and its
 held-out contribution is strongly correlated with the chosen one (:data:`ALIAS_CORR`), the
-pair is reported as a collinearity warning.
+pair is reported as a collinearity warning; when the outer test part separates the pair
+(the alternative significantly better there by the same test), the alternative is named
+instead (:meth:`Fitter._separate_aliases`): the selection's pick between two hypotheses that
+explain the same validation residual is noise, not evidence.
 
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
@@ -232,6 +235,8 @@ class Fitter:
         # what the effects may read (forms.EffectContext)
         self.ctx = system.context(prepared)
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
+        self._alternatives: dict[tuple, list[Term]] = {}
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
@@ -551,6 +556,7 @@ class Fitter:
         current = self._prune(current, sel, tried)
         current = self._demote_flips(current, sel, tried)
         current = self._identify(current, sel, tried)
+        current = self._separate_aliases(current, sel, tried)
         final = self._confirm(current, sel, tried)
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
@@ -605,6 +611,76 @@ class Fitter:
             self._forget(sel, t)
             sel.history.append({"term": t.label, "removed": True, "p_value": float(p),
                                 "part": "test"})
+
+    def _separate_aliases(self, current: FitResult, sel: Selection, tried: dict
+                          ) -> FitResult:
+        """Let the outer test part choose between terms the selection could not tell apart.
+
+        When a named term and an alternative of another meaning explained the same
+        validation residual (:meth:`_aliases`: nearly the same gain, contributions
+        correlated ≥ :data:`ALIAS_CORR`), the selection's pick between them is decided by
+        noise, not by the data: e.g. a joint that turns one way only during the first 70 %
+        of a short log makes a Coulomb friction and a constant torque bias identical there.
+        The later held-out part may separate them. Both sets are refitted on the whole fit
+        part and compared on the test part by the same likelihood-ratio test (non-nested:
+        χ² with the alternative's parameter count, an approximation); the alternative
+        replaces the term only when it is significantly better there (at :data:`ALPHA`).
+        Otherwise the pick stands and the collinearity warning is reported as before. The
+        test part then confirms the chosen set (:meth:`_confirm`) on the same rows, which is
+        optimistic for the replaced term only in the choice between two hypotheses.
+        """
+        for i in range(len(current.terms)):
+            term = current.terms[i]
+            for alt in self._alternatives.get(term.key, ()):
+                if any(u.key == alt.key for u in current.terms):
+                    continue
+                other = self.fit_new(self._drop(current, i), alt)
+                if self.at_limit(other):
+                    continue
+                mine = self.fit(current.terms, current.nl, rows=self.fit_rows)
+                theirs = self.fit(other.terms, other.nl, rows=self.fit_rows)
+                g = likelihood_ratio(self._errors(mine, self.test),
+                                     self._errors(theirs, self.test), alt.effect.n_params)
+                if not (g.testable and g.p_value < ALPHA and g.share_removed > 0):
+                    back = likelihood_ratio(self._errors(theirs, self.test),
+                                            self._errors(mine, self.test),
+                                            term.effect.n_params)
+                    if back.testable and back.p_value < ALPHA and back.share_removed > 0:
+                        self._settled(sel, term, alt, back)
+                    continue
+                text = (f"{term.effect.label} at {term.channel} and {alt.effect.label} at "
+                        f"{alt.channel} could not be told apart by the selection (the same "
+                        f"validation residual); the later held-out part separates them: "
+                        f"{alt.effect.label} is better there (p = {g.p_value:.2g}, share "
+                        f"removed {_share(g.share_removed)}) and is reported")
+                tried[(term.key,)].update(decision="rejected", reason=text)
+                entry = tried.get((alt.key,), {})
+                tried[(alt.key,)] = dict(entry, decision="named", reason=text)
+                sel.history.append({"term": alt.label, "replaces": term.label,
+                                    "p_value": float(g.p_value), "part": "test"})
+                for w in sel.warnings:
+                    if w["effects"][0] == term.effect.name and w["channels"][0] == \
+                            term.channel and alt.effect.name in w["effects"]:
+                        w["text"] = text
+                # keep the order of the named terms: the alternative takes the term's place
+                order = list(range(len(other.terms) - 1))
+                order.insert(i, len(other.terms) - 1)
+                return self._separate_aliases(
+                    self.fit([other.terms[j] for j in order], [other.nl[j] for j in order]),
+                    sel, tried)
+        return current
+
+    @staticmethod
+    def _settled(sel: Selection, term: Term, alt: Term, g: Any) -> None:
+        """Say in the collinearity warning that the test part confirmed ``term`` over ``alt``."""
+        for w in sel.warnings:
+            if w["effects"][0] == term.effect.name and w["channels"][0] == term.channel and \
+                    alt.effect.name in w["effects"] and alt.channel in w["channels"]:
+                w["text"] = (f"{term.effect.label} at {term.channel} and {alt.effect.label} "
+                             f"at {alt.channel} could not be told apart by the selection (the "
+                             f"same validation residual); the later held-out part separates "
+                             f"them: {term.effect.label} is better there (p = "
+                             f"{g.p_value:.2g}, share removed {_share(g.share_removed)})")
 
     def _drop(self, current: FitResult, i: int) -> FitResult:
         keep = [j for j in range(len(current.terms)) if j != i]
@@ -768,6 +844,7 @@ class Fitter:
                 continue
             corr = float(np.corrcoef(mine, other)[0, 1])
             if abs(corr) >= ALIAS_CORR:
+                self._alternatives.setdefault(term.key, []).append(t)
                 sel.warnings.append({
                     "effects": [term.effect.name, t.effect.name],
                     "channels": [term.channel, t.channel],

@@ -124,6 +124,13 @@ class Prepared(ResidualResult):
         derivatives: the signals that are state derivatives, as (signal name, column or
             ``None`` for a 1-D signal); what :meth:`zero_derivatives` and
             :func:`mass_split` set.
+        plan: how the form filtered this recording (form-specific, e.g. the mechanical
+            form's inner filter, equation kernel and whether velocities came from the
+            positions), or ``None``.
+
+    The inherited ``segment`` (gaps split a recording; a rollout never crosses one),
+    ``valid`` (rows whose filter window stays inside their segment), ``column_models``,
+    ``warnings`` and ``effective_samples`` come from the form's error model and grid.
     """
 
     inputs: np.ndarray
@@ -133,19 +140,22 @@ class Prepared(ResidualResult):
     state: np.ndarray
     state_derivative: np.ndarray
     derivatives: tuple[tuple[str, int | None], ...]
+    plan: Any = None
     #: Memo of pure functions of this data (lagged steering, tip-point regressors): values
     #: derived from the read-only arrays, never observable state.
     memo: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("t", "residual", "noise_rms", "inputs", "held_input", "coulomb_sigma",
-                     "fit_mask", "state", "state_derivative"):
+                     "fit_mask", "state", "state_derivative", "segment", "valid",
+                     "effective_samples"):
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, _read_only(value))
         object.__setattr__(self, "signals", _frozen_map(self.signals))
         object.__setattr__(self, "raw", _frozen_map(self.raw))
         object.__setattr__(self, "column_noise", MappingProxyType(dict(self.column_noise)))
+        object.__setattr__(self, "column_models", MappingProxyType(dict(self.column_models)))
 
     @property
     def n(self) -> int:

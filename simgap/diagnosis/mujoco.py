@@ -118,7 +118,8 @@ class MujocoSystem(MechanicalSystem):
             memo[key] = out
         return out
 
-    def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray) -> np.ndarray:
+    def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray,
+                  valid: np.ndarray | None = None) -> np.ndarray:
         """Rows (N, n) where each joint slides for sure, in MuJoCo's sense too.
 
         MuJoCo's ``frictionloss`` is a soft constraint: it pushes back with exactly its
@@ -134,7 +135,7 @@ class MujocoSystem(MechanicalSystem):
         timeconst = np.where(ref[:, 0] > 0, ref[:, 0], 0.02)
         b = 2.0 / (dmax * timeconst)
         soft = np.abs(sig["dq"]) >= 2.0 * np.abs(sig["ddq"]) / b
-        return super()._fit_mask(sig, sigma) & soft
+        return super()._fit_mask(sig, sigma, valid) & soft
 
 
 # --------------------------------------------------------------------------- loading

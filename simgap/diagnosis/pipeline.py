@@ -489,6 +489,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             "resampled_to_uniform_grid": bool(res.resampled),
             "savgol_window_samples": int(res.smoother.window),
             "column_noise_std": {k: float(v) for k, v in res.column_noise.items()},
+            "filter": type(res.smoother).__name__,
+            "segments": int(len(np.unique(res.segment))) if res.segment is not None else 1,
+            "signal_notes": list(res.warnings),
         },
     }
     data["explained"] = explained_section(  # additive shares (simgap.diagnosis.shares)

@@ -96,6 +96,8 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
             lines.append(f"  found: {e['summary']}")
     for w in data.get("warnings", []):
         lines.append(f"  warning: {w['text']}")
+    for text in data.get("processing", {}).get("signal_notes", []):
+        lines.append(f"  signals: {text}")
     if mm["significant"]:
         lines.append(f"  unexplained: {100 * data['unexplained_fraction']:.0f} % of the "
                      "held-out residual is not explained by a named effect")
@@ -267,6 +269,8 @@ def markdown(data: dict[str, Any], figure: Callable[[str], str] | None = None) -
         out.append("No effect of the vocabulary improves the held-out fit beyond the noise.")
     for w in data.get("warnings", []):
         out.append(f"\n> Warning: {w['text']}")
+    for text in data.get("processing", {}).get("signal_notes", []):
+        out.append(f"\n> Signals: {text}")
     out += ["", "### Explained shares", ""] + explained_lines(data)
     out += ["", f"![residual against the located variable]({src('residual_vs_variable.png')})",
             "", "## Tried and rejected", ""] + tried_lines(data)

@@ -1,38 +1,90 @@
-"""Step 1 of the diagnosis: derivatives, the residual per channel, and its noise floor.
+"""Step 1 of the diagnosis: grid, error model, filters, the residual's noise floor.
 
 The residual of a recording against a nominal model is computed in physical units by the
-system adapter (:mod:`simgap.diagnosis.systems`): joint torque (N·m) by inverse dynamics for
-mechanical models, axle lateral force (N) by Delta = K⁻¹(dx/dt − f) for the bicycle. This
-module supplies what every adapter shares:
+system adapter (:mod:`simgap.diagnosis.systems`): joint torque (N·m) for mechanical models,
+axle lateral force (N) by Delta = K⁻¹(dx/dt − f) for the bicycle. This module supplies what
+every adapter shares:
 
-* a uniform time grid: ``t`` need not be uniform; if the steps vary by more than 1 % the
-  columns are linearly interpolated onto a grid at the median step (reported);
-* the noise of each raw column, from its third differences (robust MAD estimate: white
-  noise of std σ has third differences of std √20·σ);
-* one Savitzky–Golay filter (cubic, scipy.signal.savgol_filter) for every signal and its
-  derivatives. The window is the shortest one whose derivative noise (σ times the norm of
-  the filter's derivative coefficients) stays below 2 % of the derivative's RMS, between
-  5 samples and 0.15 s: it adapts to the sampling rate and the noise. Every signal (inputs
-  too) goes through the same filter, so that the residual equation holds for the filtered
-  signals and effect regressors can be filtered identically;
-* the residual's noise floor per channel, by propagation: the residual is recomputed with
-  an extra white noise of the estimated σ on every raw column and the RMS of the change is
-  the floor (a seeded generator makes it reproducible).
+* **gaps and grid**: a time step longer than ``GAP_STEPS`` median steps is a gap (a logger
+  pause). The recording is split there into segments (:func:`segmented_grid`); nothing is
+  interpolated across a gap. Inside a segment, time stamps that vary by more than 1 % are
+  linearly interpolated onto a grid at the median step (jitter alone is resampled). Every
+  filter runs per segment; rows less than a window from a segment's end are not fitted
+  (``valid``), and the per-row segment id is exposed so that selection and validation can
+  split per segment.
+* **error model per column** (:mod:`simgap.diagnosis.errormodel`): white noise from the
+  least signal-biased k-th difference (robust at 100 Hz, where the third difference of a
+  smooth signal leaks signal into the estimate), quantisation (floor q/√12, so a staircase
+  never has zero noise), heavy tails (a velocity column denoised upstream or a finite
+  difference of a quantised angle is flagged; the mechanical adapter then differentiates the
+  angle instead and says so in one line). A column with no measurable noise is reported.
+* **two filters** (why two, see below): a short cubic Savitzky–Golay filter
+  (:class:`Smoother`, scipy.signal.savgol_filter) and one smooth kernel with its exact
+  derivatives (:class:`KernelFilter`). Each window is the shortest whose output noise (the
+  column's error std times the filter's gain, :func:`choose_window`) stays below 2 % of the
+  estimated quantity's RMS, between 5 samples and 0.15 s.
+* the residual's **noise floor** per channel, by propagation: the residual is recomputed with
+  an extra white noise of each column's error std (quantisation included) and the RMS of the
+  change is the floor (a seeded generator makes it reproducible); and the residual's
+  **effective sample count** per channel (N/τ, τ the integrated autocorrelation time).
+
+**No unmodelled smoothing bias (issue 13).** Filtering signals and then evaluating a
+nonlinear model on them, M(S q)·S''q + bias(S q, S'q), is not the filtered equation: the
+difference (a few % of the inertial and gravity torque with a 0.15 s window) is a smoothing
+bias that the fit then names as a gravity mismatch or a spring. The mechanical adapter
+instead filters the *whole equation* with one kernel K, in a form without a second
+derivative (the modulating-function method of system identification): with momentum
+p = M(q) q̇, M(q) q̈ = ṗ − Ṁq̇, and K*ṗ = K'*p for a kernel that vanishes with its first
+derivatives at the window's ends, so
+
+    K*[τ − M q̈ − bias] = K*[τ − bias(q, q̇) + Ṁ(q, q̇) q̇] − K'*[M(q) q̇],
+
+exactly, with q, q̇ evaluated sample by sample. The kernel is k(τ) ∝ (1 + b·s²)(1 − s²)^6, s = τ/T, a
+fourth-order kernel with a flat passband like the cubic Savitzky–Golay filter's
+(:func:`kernel_weights`); the fit filters every effect regressor with the same K
+(``system.smoother``), so the residual and the regressors are the same linear functional of
+the same equation. q and q̇ inside the nonlinear terms come from the short Savitzky–Golay
+filter (a smoothing, not a second derivative: its window keeps the *velocity* noise below
+2 %, a few samples, and its bias (ω·T)⁴ is negligible); q̇ is the recorded velocity when it
+is trustworthy, else the filter's derivative of q. This was chosen over an output-error
+(simulation) fit because it keeps the linear-in-parameters fit and every effect as it is,
+and costs one more mass-matrix evaluation per sample (Ṁq̇ by a central difference of M
+along q̇). Remaining inconsistency: mass-type effects (payload) are filtered as
+K*[ΔM]·(K'*q̇) rather than K*[ΔM q̈], a second-order term. When the mass matrix is constant
+along the recording (a prismatic axis such as EMPS), M·q̈ is linear in q and the
+Savitzky–Golay signals are used as before (the kernel there changed nothing physical but
+tipped the EMPS selection between an offset and an aliased spring, a gate of the selection).
+The bicycle's equation has only first derivatives and stays on the Savitzky–Golay filter.
+For now only the built-in two-link arm uses the momentum form: on MuJoCo models it named
+the armature as an inertia mismatch (the model's M(q) and its inverse dynamics disagree
+there), so user and MuJoCo models keep the Savitzky–Golay route and main's third-difference
+noise estimate (gaps are split for them too) until they are re-validated.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from scipy.ndimage import convolve1d
 from scipy.signal import savgol_coeffs, savgol_filter
+
+from simgap.diagnosis.errormodel import ColumnErrorModel, column_error_model, effective_samples
 
 POLYORDER = 3
 MIN_WINDOW = 5
 MAX_WINDOW_S = 0.15
 NOISE_RATIO = 0.02
 UNIFORM_TOL = 0.01
+#: A time step longer than this many median steps is a gap (a logger pause), not jitter.
+GAP_STEPS = 3.0
+#: Power P of the smoothing kernel (1 − (τ/T)²)^P: k and its first P − 1 derivatives vanish
+#: at the window's ends, so K*ẋ = K'*x holds to the sampling's quadrature accuracy.
+KERNEL_POWER = 6
+#: Segments (between gaps) with fewer samples than this are too short to filter.
+MIN_SEGMENT = 40
 
 
 def noise_std(x: np.ndarray) -> float:
@@ -44,20 +96,115 @@ def noise_std(x: np.ndarray) -> float:
     return float(1.4826 * mad / np.sqrt(20.0))
 
 
+def find_gaps(t: np.ndarray) -> np.ndarray:
+    """Indices i where ``t[i+1] - t[i]`` is a gap: more than ``GAP_STEPS`` median steps.
+
+    A logger pause is a time step many times the usual one; timestamp jitter (steps within
+    a few tens of % of the median) is not a gap.
+    """
+    dt = np.diff(np.asarray(t, dtype=np.float64))
+    if dt.size == 0:
+        return np.zeros(0, dtype=int)
+    return np.flatnonzero(dt > GAP_STEPS * float(np.median(dt)))
+
+
 def uniform_grid(t: np.ndarray, columns: Mapping[str, np.ndarray]
                  ) -> tuple[np.ndarray, dict[str, np.ndarray], bool]:
     """Put columns on a uniform time grid (s) if ``t`` is not uniform within 1 %.
+
+    For one gap-free stretch of samples; :func:`segmented_grid` splits at gaps first.
 
     Returns:
         (t_uniform, columns_uniform, resampled?). Interpolation is linear (numpy.interp).
     """
     dt = np.diff(t)
     step = float(np.median(dt))
-    if np.max(np.abs(dt - step)) <= UNIFORM_TOL * step:
+    return _uniform(t, columns, step)
+
+
+def _uniform(t: np.ndarray, columns: Mapping[str, np.ndarray], step: float
+             ) -> tuple[np.ndarray, dict[str, np.ndarray], bool]:
+    dt = np.diff(t)
+    if dt.size == 0 or np.max(np.abs(dt - step)) <= UNIFORM_TOL * step:
         return t, dict(columns), False
-    n = int(np.floor((t[-1] - t[0]) / step)) + 1
+    n = int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1
     tu = t[0] + step * np.arange(n)
     return tu, {k: np.interp(tu, t, v) for k, v in columns.items()}, True
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A recording on per-segment uniform grids (no interpolation across gaps).
+
+    Attributes:
+        t: time of each row (s); uniform with step ``dt`` inside a segment, jumping at gaps.
+        columns: the columns on those rows.
+        segment: segment id of each row (0, 1, …), shape (N,).
+        dt: the common sample period (s): the median step of the recording.
+        resampled: whether any segment's time stamps were non-uniform and were resampled.
+        dropped: (start s, end s) of stretches left out because they were too short to
+            filter (fewer than ``MIN_SEGMENT`` samples).
+        gaps: (end of the segment before s, start of the one after s) of each gap.
+    """
+
+    t: np.ndarray
+    columns: dict[str, np.ndarray]
+    segment: np.ndarray
+    dt: float
+    resampled: bool
+    dropped: tuple[tuple[float, float], ...]
+    gaps: tuple[tuple[float, float], ...]
+
+    @property
+    def bounds(self) -> tuple[tuple[int, int], ...]:
+        """(first row, end row) of each segment on the grid."""
+        return segment_bounds(self.segment)
+
+
+def segment_bounds(segment: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """(first row, one past the last row) of each run of equal segment ids."""
+    segment = np.asarray(segment)
+    if segment.size == 0:
+        return ()
+    cuts = np.flatnonzero(np.diff(segment) != 0) + 1
+    starts = np.concatenate([[0], cuts])
+    ends = np.concatenate([cuts, [segment.size]])
+    return tuple((int(a), int(b)) for a, b in zip(starts, ends, strict=True))
+
+
+def segmented_grid(t: np.ndarray, columns: Mapping[str, np.ndarray]) -> Grid:
+    """Split a recording at gaps and put each segment on a uniform grid of the median step.
+
+    Gaps are never interpolated across: a stretch without samples stays without rows, and
+    each segment is filtered on its own. Jitter without gaps is resampled as before.
+    Segments too short to filter are left out (reported in ``dropped``).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    step = float(np.median(np.diff(t)))
+    cuts = find_gaps(t)
+    starts = np.concatenate([[0], cuts + 1])
+    ends = np.concatenate([cuts + 1, [t.size]])
+    ts, cols, segs, dropped, kept = [], {k: [] for k in columns}, [], [], []
+    resampled = False
+    for a, b in zip(starts, ends, strict=True):
+        if b - a < MIN_SEGMENT:
+            dropped.append((float(t[a]), float(t[b - 1])))
+            continue
+        tu, cu, rs = _uniform(t[a:b], {k: np.asarray(v)[a:b] for k, v in columns.items()},
+                              step)
+        resampled |= rs
+        ts.append(tu)
+        for k in columns:
+            cols[k].append(cu[k])
+        segs.append(np.full(tu.size, len(kept), dtype=int))
+        kept.append((float(tu[0]), float(tu[-1])))
+    if not ts:
+        raise ValueError(f"no stretch of at least {MIN_SEGMENT} samples without a gap "
+                         f"(gaps: {cuts.size})")
+    gaps = tuple((kept[i][1], kept[i + 1][0]) for i in range(len(kept) - 1))
+    return Grid(t=np.concatenate(ts), columns={k: np.concatenate(v) for k, v in cols.items()},
+                segment=np.concatenate(segs), dt=step, resampled=resampled,
+                dropped=tuple(dropped), gaps=gaps)
 
 
 def derivative_gain(window: int, deriv: int, dt: float) -> float:
@@ -66,62 +213,207 @@ def derivative_gain(window: int, deriv: int, dt: float) -> float:
     return float(np.sqrt(np.sum(c**2)))
 
 
-def choose_window(signals: list[np.ndarray], dt: float, deriv: int = 1) -> int:
-    """Shortest odd SG window keeping each signal's derivative noise below 2 % of its RMS.
+def kernel_weights(window: int, deriv: int, dt: float) -> np.ndarray:
+    """Weights of the smoothing kernel k(τ) = c·(1 + b·s²)·(1 − s²)^P or of its derivatives.
+
+    s = τ/T. ``window`` = 2h + 1 samples; T = (h + 1)·dt, so that k and its first P − 1 derivatives
+    vanish just outside the window. b makes the discrete second moment zero (a fourth-order
+    kernel: like the cubic Savitzky–Golay filter it passes cubics unchanged, so its passband
+    is flat and its bias O(T⁴)); c makes the deriv-0 weights sum to 1. The deriv-1 and
+    deriv-2 weights are the same c times the exact derivatives k'(i·dt), k''(i·dt) (units
+    1/s, 1/s²). Applied with ``scipy.ndimage.convolve1d``: y[n] = Σ_i w[i + h]·x[n − i].
+    """
+    h = window // 2
+    big_t = (h + 1) * dt
+    s = np.arange(-h, h + 1) / (h + 1)
+    p = KERNEL_POWER
+    u = 1.0 - s**2
+    base = u**p
+    b = -float(np.sum(base * s**2)) / float(np.sum(base * s**4))
+    poly = 1.0 + b * s**2
+    c = 1.0 / float(np.sum(poly * base))
+    d1 = -2.0 * p * s * u ** (p - 1)                                     # dB/ds
+    if deriv == 0:
+        w = poly * base
+    elif deriv == 1:
+        w = (2.0 * b * s * base + poly * d1) / big_t
+    elif deriv == 2:
+        d2 = -2.0 * p * u ** (p - 1) + 4.0 * p * (p - 1) * s**2 * u ** (p - 2)
+        w = (2.0 * b * base + 4.0 * b * s * d1 + poly * d2) / big_t**2
+    else:
+        raise ValueError(f"kernel derivative order {deriv} not supported (0, 1, 2)")
+    return c * w
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.asarray(x, dtype=np.float64) ** 2))) if np.size(x) else 0.0
+
+
+def choose_window(signals: list[np.ndarray], dt: float, deriv: int = 1,
+                  noise: Sequence[float] | None = None, kind: str = "savgol",
+                  pre: np.ndarray | None = None, length: int | None = None) -> int:
+    """Shortest odd window keeping each signal's derivative noise below 2 % of its RMS.
 
     Args:
         signals: raw signals that will be differentiated ``deriv`` times.
         dt: sample period (s).
         deriv: derivative order needed (1 or 2).
+        noise: error std of each signal (its units); default: the white-noise estimate of
+            :func:`noise_std`. A zero noise (exact data) gives the shortest window; the
+            callers report that (issue 13: it must never happen silently).
+        kind: ``"savgol"`` (cubic Savitzky–Golay) or ``"kernel"`` (:func:`kernel_weights`).
+        pre: for ``kind="kernel"``: weights of a filter applied before the kernel's first
+            derivative (the short inner smoother or differentiator); the noise gain is then
+            that of the composition, and ``deriv`` only names the total order.
+        length: shortest segment (samples); bounds the window.
 
     Returns:
         Window length in samples (odd, at least 5, at most 0.15 s or the data length).
     """
-    n = min(len(s) for s in signals)
+    n = length or min(len(s) for s in signals)
     w_max = max(MIN_WINDOW, int(MAX_WINDOW_S / dt) | 1)
     w_max = min(w_max, (n - 1) | 1 if (n - 1) % 2 else n - 2)
     w_max = max(w_max, MIN_WINDOW)
+
+    def weights(w: int) -> np.ndarray:
+        if kind == "savgol":
+            return savgol_coeffs(w, POLYORDER, deriv=deriv, delta=dt, use="dot")
+        if pre is None:
+            return kernel_weights(w, deriv, dt)
+        return np.convolve(kernel_weights(w, 1, dt), pre)
+
+    def estimate(s: np.ndarray, w: int) -> np.ndarray:
+        if kind == "savgol":
+            return savgol_filter(s, w, POLYORDER, deriv=deriv, delta=dt)
+        return convolve1d(np.asarray(s, dtype=np.float64), weights(w), mode="nearest")
+
     best = MIN_WINDOW
-    for s in signals:
-        sigma = noise_std(s)
-        ref = savgol_filter(s, w_max, POLYORDER, deriv=deriv, delta=dt)
-        rms = float(np.sqrt(np.mean(ref**2)))
+    sigmas = list(noise) if noise is not None else [noise_std(s) for s in signals]
+    for s, sigma in zip(signals, sigmas, strict=True):
+        rms = _rms(estimate(s, w_max)[w_max:-w_max] if len(s) > 3 * w_max
+                   else estimate(s, w_max))
         w = w_max
         if rms > 0:
             for cand in range(MIN_WINDOW, w_max + 1, 2):
-                if sigma * derivative_gain(cand, deriv, dt) <= NOISE_RATIO * rms:
+                gain = float(np.sqrt(np.sum(weights(cand) ** 2)))
+                if sigma * gain <= NOISE_RATIO * rms:
                     w = cand
                     break
         best = max(best, w)
     return best
 
 
+def _per_segment(x: np.ndarray, bounds: tuple[tuple[int, int], ...] | None,
+                 fn: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float64)
+    if not bounds or len(bounds) == 1:
+        return fn(x)
+    return np.concatenate([fn(x[a:b]) for a, b in bounds], axis=0)
+
+
 @dataclass(frozen=True)
 class Smoother:
-    """The one Savitzky–Golay filter of a diagnosis: window (samples) and step dt (s)."""
+    """A cubic Savitzky–Golay filter: window (samples), step dt (s), segments.
+
+    Each segment (rows between gaps, ``bounds``) is filtered on its own, its ends by the
+    polynomial fit of its first/last window (scipy's ``mode="interp"``).
+    """
 
     window: int
     dt: float
+    bounds: tuple[tuple[int, int], ...] | None = None
 
     def __call__(self, x: np.ndarray, deriv: int = 0) -> np.ndarray:
         """Return the filtered signal (deriv=0) or its deriv-th time derivative (units/s^deriv)."""
-        return savgol_filter(np.asarray(x, dtype=np.float64), self.window, POLYORDER,
-                             deriv=deriv, delta=self.dt, axis=0, mode="interp")
+        def one(seg: np.ndarray) -> np.ndarray:
+            w = self.window if seg.shape[0] >= self.window else \
+                max(POLYORDER + 2, (seg.shape[0] - 1) | 1 if seg.shape[0] % 2 == 0
+                    else seg.shape[0])
+            if seg.shape[0] < POLYORDER + 2:
+                return np.zeros_like(seg) if deriv else seg.copy()
+            return savgol_filter(seg, w, POLYORDER, deriv=deriv, delta=self.dt, axis=0,
+                                 mode="interp")
+        return _per_segment(x, self.bounds, one)
+
+    def valid(self, n: int) -> np.ndarray:
+        """Rows (n,) at least a window from their segment's ends (filter fully inside)."""
+        return _valid_rows(n, self.bounds, self.window)
+
+
+def _valid_rows(n: int, bounds: tuple[tuple[int, int], ...] | None, window: int
+                ) -> np.ndarray:
+    ok = np.zeros(n, dtype=bool)
+    h = window // 2 + 1
+    for a, b in bounds or ((0, n),):
+        ok[a + h:b - h] = True
+    return ok
+
+
+@dataclass(frozen=True)
+class KernelFilter:
+    """One smooth kernel and its exact derivatives, applied per segment (see the module doc).
+
+    ``self(x)`` = K*x, ``self(x, 1)`` = K'*x = K*ẋ, ``self(x, 2)`` = K''*x = K*ẍ on rows at
+    least half a window from a segment's end (:meth:`valid`); nearer the ends the
+    convolution repeats the end sample and the rows must not be fitted.
+    """
+
+    window: int
+    dt: float
+    bounds: tuple[tuple[int, int], ...] | None = None
+
+    def __call__(self, x: np.ndarray, deriv: int = 0) -> np.ndarray:
+        """Return K^(deriv) * x per segment (units of x per s^deriv).
+
+        Rows nearer a segment's end than half a window use the same kernel shape on the
+        widest symmetric window that fits (at least 5 samples), so that the filtered
+        equation stays exact there too, only noisier; the first and last two rows repeat
+        their neighbour's value.
+        """
+        w = kernel_weights(self.window, deriv, self.dt)
+        h = self.window // 2
+
+        def one(seg: np.ndarray) -> np.ndarray:
+            out = convolve1d(seg, w, axis=0, mode="nearest")
+            n = seg.shape[0]
+            for d in range(min(h, (n - 1) // 2)):
+                half = max(d, 2)
+                if 2 * half + 1 > n:
+                    break
+                wd = kernel_weights(2 * half + 1, deriv, self.dt)[::-1]
+                for row, lo in ((d, d - half), (n - 1 - d, n - 1 - d - half)):
+                    lo = min(max(lo, 0), n - 2 * half - 1)
+                    out[row] = np.tensordot(wd, seg[lo:lo + 2 * half + 1], axes=(0, 0))
+            return out
+        return _per_segment(x, self.bounds, one)
+
+    def valid(self, n: int) -> np.ndarray:
+        """Rows (n,) at least half a window from their segment's ends."""
+        return _valid_rows(n, self.bounds, self.window)
 
 
 @dataclass(frozen=True)
 class ResidualResult:
-    """Residual of a recording on its uniform grid.
+    """Residual of a recording on its grid (uniform inside each segment).
 
     Attributes:
-        t: uniform time grid (s).
+        t: time of each row (s); uniform inside a segment, jumping across gaps.
         residual: physical residual, shape (N, n_channels), channel units.
-        noise_rms: noise floor per channel (channel units).
-        signals: filtered signals and derivatives by name (uniform grid).
-        raw: raw columns on the uniform grid.
-        smoother: the filter used.
+        noise_rms: noise floor per channel (channel units): the residual's change under the
+            columns' error std (white noise or quantisation q/√12, the larger) plus the
+            numerical floor.
+        signals: filtered signals and derivatives by name.
+        raw: raw columns on the grid.
+        smoother: the filter of the residual equation (the fit filters regressors with it).
         resampled: whether the recording's time stamps were non-uniform and resampled.
-        column_noise: estimated white-noise std of each raw column.
+        column_noise: error std of each raw column (column units), quantisation included.
+        segment: segment id of each row (gaps split the recording), shape (N,).
+        column_models: the per-column error models (:mod:`simgap.diagnosis.errormodel`).
+        warnings: one-line findings for the report (quantised or pre-filtered columns,
+            gaps, columns replaced by a derivative, exact data).
+        effective_samples: effective number of independent residual samples per channel
+            (N/τ with τ the integrated autocorrelation time, summed over segments).
+        valid: rows whose filter window lies inside their segment, shape (N,).
     """
 
     t: np.ndarray
@@ -129,9 +421,62 @@ class ResidualResult:
     noise_rms: np.ndarray
     signals: dict[str, np.ndarray]
     raw: dict[str, np.ndarray]
-    smoother: Smoother
+    smoother: Any
     resampled: bool
     column_noise: dict[str, float]
+    segment: np.ndarray | None = None
+    column_models: Mapping[str, ColumnErrorModel] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+    effective_samples: np.ndarray | None = None
+    valid: np.ndarray | None = None
+
+
+def error_models(raw: Mapping[str, np.ndarray], segment: np.ndarray
+                 ) -> dict[str, ColumnErrorModel]:
+    """Each column's error model, estimated on its longest segment (a gap is no jump)."""
+    a, b = max(segment_bounds(segment), key=lambda ab: ab[1] - ab[0])
+    return {k: column_error_model(k, np.asarray(v)[a:b]) for k, v in raw.items()}
+
+
+def effective_counts(residual: np.ndarray, valid: np.ndarray, segment: np.ndarray
+                     ) -> np.ndarray:
+    """Effective independent samples per channel: Σ over segments of N_s/τ_s (valid rows)."""
+    out = np.zeros(residual.shape[1])
+    for a, b in segment_bounds(segment):
+        rows = np.flatnonzero(valid[a:b]) + a
+        if rows.size < 4:
+            continue
+        for j in range(residual.shape[1]):
+            out[j] += effective_samples(residual[rows, j])
+    return out
+
+
+def grid_warnings(grid: Grid) -> list[str]:
+    """One line per gap and per left-out stretch of a segmented grid."""
+    out = [f"time gap from {a:.6g} s to {b:.6g} s ({b - a:.3g} s, more than {GAP_STEPS:g} "
+           "sample periods): the recording is split there, nothing is interpolated across it"
+           for a, b in grid.gaps]
+    out += [f"samples from {a:.6g} s to {b:.6g} s left out: fewer than {MIN_SEGMENT} samples "
+            "between gaps, too short to filter" for a, b in grid.dropped]
+    return out
+
+
+def noise_of(models: Mapping[str, ColumnErrorModel], warn: list[str],
+             differentiated: Sequence[str]) -> dict[str, float]:
+    """Error std per column (column units): the model's floor, never silently zero.
+
+    A column without measurable noise (exact values, e.g. simulated data without noise)
+    keeps a zero noise, but a column that will be differentiated is reported in ``warn``:
+    the shortest filter window is then chosen because the data say so, not by accident.
+    """
+    out = {}
+    for k, m in models.items():
+        out[k] = m.floor_std
+        warn.extend(m.notes)
+        if out[k] == 0.0 and k in differentiated:
+            warn.append(f"{k}: no measurable noise or quantisation (exact values?); the "
+                        "shortest derivative filter window is used")
+    return out
 
 
 def noise_floor(raw: Mapping[str, np.ndarray], column_noise: Mapping[str, float],
