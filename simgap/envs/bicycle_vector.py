@@ -27,7 +27,6 @@ from simgap.envs._common import state_option
 from simgap.envs.bicycle import BicycleTireEnv
 from simgap.envs.scenarios import YawRateReference, yaw_rate_entries
 from simgap.envs.vector_base import NativeVectorEnv
-from simgap.errors import EnvError
 from simgap.models.bicycle import axle_force_entries, plant_rk4, residual_entries
 from simgap.models.nbcache import guard_cache
 
@@ -115,14 +114,7 @@ class BicycleVectorEnv(NativeVectorEnv):
 
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
                  **kwargs: Any) -> None:
-        if kwargs.get("render_mode") is not None:
-            raise EnvError("the native vector env does not render; use "
-                           "gym.make_vec(..., vectorization_mode='sync')")
-        single = BicycleTireEnv(**kwargs)
-        if type(single.reference) is not YawRateReference:
-            raise EnvError(f"the native vector env runs the YawRateReference only, got "
-                           f"{single.reference!r}; use gym.make_vec(..., "
-                           f"vectorization_mode='sync') for other references")
+        single = self._make_single(BicycleTireEnv, YawRateReference, kwargs)
         super().__init__(single, num_envs, max_episode_steps)
         nn = self.num_envs
         self._s = np.zeros((nn, 6))
@@ -153,9 +145,7 @@ class BicycleVectorEnv(NativeVectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every row (straight running, or ``options["state"]`` = (vy, r) for all)."""
-        if options is not None and "reset_mask" in options:
-            raise EnvError("the native vector env resets all rows; use "
-                           "gym.make_vec(..., vectorization_mode='sync') for reset_mask")
+        self._check_reset_options(options)
         self._seed(seed)  # the rows' np_random streams, as the sync env's (the env draws none)
         state = state_option(options, 2, "vy m/s, r rad/s")
         if state is None:

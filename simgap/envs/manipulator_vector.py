@@ -25,7 +25,6 @@ from simgap.envs._common import state_option
 from simgap.envs.manipulator import ManipulatorFrictionEnv
 from simgap.envs.scenarios import QuinticReference, quintic_sample_entries
 from simgap.envs.vector_base import NativeVectorEnv
-from simgap.errors import EnvError
 from simgap.models.manipulator import residual_entries, transition_entries
 from simgap.models.nbcache import guard_cache
 
@@ -120,14 +119,7 @@ class ManipulatorVectorEnv(NativeVectorEnv):
 
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
                  **kwargs: Any) -> None:
-        if kwargs.get("render_mode") is not None:
-            raise EnvError("the native vector env does not render; use "
-                           "gym.make_vec(..., vectorization_mode='sync')")
-        single = ManipulatorFrictionEnv(**kwargs)
-        if type(single.reference) is not QuinticReference:
-            raise EnvError(f"the native vector env runs the QuinticReference only, got "
-                           f"{single.reference!r}; use gym.make_vec(..., "
-                           f"vectorization_mode='sync') for other references")
+        single = self._make_single(ManipulatorFrictionEnv, QuinticReference, kwargs)
         super().__init__(single, num_envs, max_episode_steps)
         nn = self.num_envs
         self._s = np.zeros((nn, 4))
@@ -162,9 +154,7 @@ class ManipulatorVectorEnv(NativeVectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every row (``seed``: int s → rows s, s + 1, …; ``options["state"]``: all)."""
-        if options is not None and "reset_mask" in options:
-            raise EnvError("the native vector env resets all rows; use "
-                           "gym.make_vec(..., vectorization_mode='sync') for reset_mask")
+        self._check_reset_options(options)
         self._seed(seed)
         self._ref_p = np.array(self.single_env.reference.params)
         state = state_option(options, 4, "q1, q2, dq1, dq2")

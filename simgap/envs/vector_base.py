@@ -61,6 +61,30 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self._was_reset = False
 
+    @staticmethod
+    def _make_single(env_cls: type, reference_cls: type, kwargs: dict[str, Any]) -> Any:
+        """The sub-env every row copies, refused where the kernel cannot follow it.
+
+        Raises:
+            EnvError: a render mode, or a reference the kernel does not implement.
+        """
+        if kwargs.get("render_mode") is not None:
+            raise EnvError("the native vector env does not render; use "
+                           "gym.make_vec(..., vectorization_mode='sync')")
+        single = env_cls(**kwargs)
+        if type(single.reference) is not reference_cls:
+            raise EnvError(f"the native vector env runs the {reference_cls.__name__} only, got "
+                           f"{single.reference!r}; use gym.make_vec(..., "
+                           f"vectorization_mode='sync') for other references")
+        return single
+
+    @staticmethod
+    def _check_reset_options(options: dict[str, Any] | None) -> None:
+        """Refuse ``reset_mask``: the native envs reset all rows at once."""
+        if options is not None and "reset_mask" in options:
+            raise EnvError("the native vector env resets all rows; use "
+                           "gym.make_vec(..., vectorization_mode='sync') for reset_mask")
+
     # ------------------------------------------------------------------ plant
     @property
     def plant(self) -> Any:
