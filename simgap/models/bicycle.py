@@ -443,6 +443,8 @@ class BicycleNominal(BaseNominalModel):
     def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """State residual g (…, 2) → axle force deviations Delta = K⁻¹ g (N)."""
         g = np.asarray(g, dtype=np.float64)
+        if g.shape == (2,):  # one residual (the env's step): the scalar kernel, no row copy
+            return np.array(axle_force_entries(g[0], g[1], self.K_inv))
         rows = np.ascontiguousarray(g.reshape(-1, 2))
         return axle_force_rows(rows, self.K_inv).reshape(g.shape)
 
