@@ -2,7 +2,7 @@
 
 One command after a change to the identifiers (issue 14):
 
-    .venv/bin/python benchmarks/downstream.py            # compensation, MPC, highway (~15 min)
+    .venv/bin/python benchmarks/downstream.py            # compensation, MPC, highway (~2-3 min)
     .venv/bin/python benchmarks/downstream.py --tables   # only rebuild the tables from JSON
 
 runs ``benchmarks/compensation.py``, ``benchmarks/bench_mpc.py`` and

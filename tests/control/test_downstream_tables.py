@@ -43,3 +43,14 @@ def test_highway_study_quick(tmp_path):
     assert set(res["auto"]) == set(res["thesis_bicycle"]) == set(mod.KINDS)
     assert all(len(v["correlation"]) == 2 for v in res["auto"].values())
     assert (tmp_path / "highway_identifiers.json").exists()
+
+
+def test_seed_spread_quick():
+    mod = _load("downstream_seeds")
+    res = mod.run([0], train=2.0, evals=0.5)
+    rows = res["compensation"]["0"]
+    assert all(len(rows[f"{p}_{k}"]) == 2 for p in ("arm", "car")
+               for k in ("instantaneous", "integral", "minibatch"))
+    assert set(res["mpc"]["0"]) == {"nominal", "exact plant (bound)", "nominal+instantaneous",
+                                    "nominal+integral", "nominal+minibatch"}
+    assert rows["arm_exact"] < rows["arm_plain"]
