@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from math import comb
 
 import numpy as np
+from scipy.signal import welch
 
 #: Difference orders over which the white-noise estimate is minimised.
 ORDERS = (2, 3, 4, 5, 6)
@@ -51,6 +52,12 @@ QUANT_DOMINANT = 0.5
 #: about sqrt(24/N). A column is heavy-tailed when its kurtosis exceeds 3 by this many
 #: sampling stds (and by a factor of 2, so that very long logs do not flag mild tails).
 KURTOSIS_SIGMAS = 8.0
+#: Spectral flatness of the upper half band below which the high frequencies are not white:
+#: white noise gives ≈ exp(−1/(2K)) ≥ 0.9 for K ≥ 5 Welch segments; a spectrum falling by a
+#: decade or more across the band (a filter's cut) gives well below 0.5.
+FLATNESS_WHITE = 0.5
+#: Welch segment length (samples) of the flatness estimate, shortened to keep ≥ 8 segments.
+WELCH_SEGMENT = 256
 
 
 @dataclass(frozen=True)
@@ -68,6 +75,8 @@ class ColumnErrorModel:
             denoised upstream): ``white_std`` then under-states the real error.
         kurtosis: kurtosis of the third differences (3 for white noise).
         notes: one-line findings a report can show.
+        flatness: spectral flatness of the column's upper half band (≈ 1 white, ≪ 1 when
+            the high frequencies were filtered away); 1 when too short to tell.
     """
 
     name: str
@@ -77,6 +86,14 @@ class ColumnErrorModel:
     heavy_tailed: bool
     kurtosis: float
     notes: tuple[str, ...] = ()
+    flatness: float = 1.0
+
+    @property
+    def filtered_upstream(self) -> bool:
+        """Heavy tails with the high frequencies gone: filtered upstream (not quantisation)."""
+        dominant = bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
+            self.white_std
+        return bool(self.heavy_tailed and not dominant and self.flatness < FLATNESS_WHITE)
 
     @property
     def floor_std(self) -> float:
@@ -133,6 +150,24 @@ def quantisation_step(x: np.ndarray) -> float | None:
     return None
 
 
+def spectral_flatness(x: np.ndarray) -> float:
+    """Flatness of the upper half band of a column's Welch PSD (1 for white noise).
+
+    Geometric over arithmetic mean of the PSD between half and full Nyquist frequency
+    (Hann window, linear detrend per segment). Returns 1.0 when the column is too short for
+    8 segments of 32 samples, or has no power there (nothing to tell).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    seg = min(WELCH_SEGMENT, x.size // 8)
+    if seg < 32:
+        return 1.0
+    _, p = welch(x, nperseg=seg, detrend="linear")
+    top = p[p.size // 2:]
+    if not np.all(top > 0):
+        return 1.0
+    return float(np.exp(np.mean(np.log(top))) / np.mean(top))
+
+
 def kurtosis(d: np.ndarray) -> float:
     """Pearson kurtosis E[(d−μ)⁴]/σ⁴ (3 for a Gaussian; inf for a constant)."""
     d = np.asarray(d, dtype=np.float64)
@@ -152,16 +187,23 @@ def column_error_model(name: str, x: np.ndarray) -> ColumnErrorModel:
     limit = max(2.0 * 3.0, 3.0 + KURTOSIS_SIGMAS * np.sqrt(24.0 / n))
     dominant = q is not None and q / np.sqrt(12.0) > QUANT_DOMINANT * std
     heavy = bool(dominant or not np.isfinite(kurt) or kurt > limit)
+    flat = spectral_flatness(x) if heavy and not dominant else 1.0
     notes = []
     if dominant:
         notes.append(f"{name} is quantised (step {q:.4g}); error floor q/√12 = "
                      f"{q / np.sqrt(12.0):.3g}")
-    elif heavy:
+    elif heavy and flat < FLATNESS_WHITE:
         notes.append(f"{name} looks filtered or despiked upstream (kurtosis of its third "
-                     f"differences {kurt:.3g}, white noise gives 3): its noise estimate "
+                     f"differences {kurt:.3g}, white noise gives 3; high-frequency spectral "
+                     f"flatness {flat:.2f}, white noise gives ≈ 1): its noise estimate "
                      "under-states its error")
+    elif heavy:
+        notes.append(f"{name}: heavy-tailed third differences (kurtosis {kurt:.3g}) but a "
+                     f"white high-frequency spectrum (flatness {flat:.2f}): kinks of the "
+                     "signal, not upstream filtering; its noise estimate is kept")
     return ColumnErrorModel(name=name, white_std=std, order=order, quantum=q,
-                            heavy_tailed=heavy, kurtosis=kurt, notes=tuple(notes))
+                            heavy_tailed=heavy, kurtosis=kurt, notes=tuple(notes),
+                            flatness=flat)
 
 
 def autocorrelation_time(r: np.ndarray) -> float:

@@ -386,7 +386,10 @@ class MechanicalSystem:
             # (white or quantised): when it too shows unmodelled heavy tails (both columns
             # filtered, or interpolated timing errors of a jittered log) the recorded
             # velocity is kept; both columns are reported by the error model's notes.
-            bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True) if models[v].heavy_tailed
+            # A heavy-tailed velocity whose high frequencies are still white (kinks of the
+            # signal at a coarse rate: friction reversals, torque steps) is kept too.
+            bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True)
+                   if (models[v].filtered_upstream or _quantised(models[v]))
                    and not (models[p].heavy_tailed and not _quantised(models[p]))]
             if bad:
                 from_q = True
@@ -398,7 +401,8 @@ class MechanicalSystem:
         noise = noise_of(models, warn, c.q if from_q else c.dq)
         if from_q and c.dq:  # a replaced column: its one line says so, not its model's note
             warn = [w for w in warn if not any(w in models[v].notes for v in c.dq
-                                               if models[v].heavy_tailed)]
+                                               if models[v].filtered_upstream
+                                               or _quantised(models[v]))]
         if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
             noise = {k: noise_std(v) for k, v in raw.items()}
             from_q = not c.dq
