@@ -411,7 +411,12 @@ class MechanicalSystem:
         smoother = kernel if kernel is not None else plan.inner
         sig = self._signals(raw, plan)
         res = self._residual(sig, kernel)
-        floor = noise_floor(raw, noise, lambda r: self.residual_of(r, plan), res)
+        # a quantised angle's rounding error is propagated as a staircase, not as white noise
+        quant = {k: (models[k].quantum, sig["q"][:, j]) for j, k in enumerate(c.q)
+                 if self.is_manipulator and _quantised(models[k])}
+        white = {k: (models[k].white_std if k in quant else v) for k, v in noise.items()}
+        floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
+                            quantised=quant)
         model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
                                     axis=0))
         floor = np.hypot(floor, NUMERICAL_FLOOR * model_rms)
