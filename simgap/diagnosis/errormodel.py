@@ -22,6 +22,17 @@ This module estimates, per column:
   one). Such a column's MAD-based σ says nothing about its real error, which is correlated
   and low-frequency; it is flagged, and a derivable column (velocity) is then better
   rebuilt from its integral (position) than trusted.
+* **filtered upstream, or kinks of the signal**: heavy tails alone do not say who made
+  them. A coarsely sampled signal with kinks (a friction reversal, a step of the commanded
+  torque) has a few large third differences too, yet its error is still white. What an
+  upstream filter does and a kink does not is change the top half of the spectrum (half to
+  full Nyquist): either it is no longer flat (a filter's cut: spectral flatness, geometric
+  over arithmetic mean of the Welch PSD, 0.06–0.41 for median + wavelet denoising against
+  0.95–0.99 for white noise with or without kinks at 100 Hz or jitter), or, for a denoiser
+  leaving plateaus and jumps, it holds far more power than the robust white-noise σ
+  explains (``hf_excess``: mean top-band PSD over 2σ²/fs; ≈ 1 white, 1.4–2.2 for kinks at
+  100 Hz and jittered logs, 8–180 for denoised columns, infinite on exact plateaus). Only
+  a heavy-tailed column failing one of these counts as filtered upstream.
 * **effective sample count** of a residual: N / τ, with τ the integrated autocorrelation
   time (Geyer's initial positive sequence), so that statistics on correlated residuals do
   not count every sample as independent.
@@ -56,6 +67,9 @@ KURTOSIS_SIGMAS = 8.0
 #: white noise gives ≈ exp(−1/(2K)) ≥ 0.9 for K ≥ 5 Welch segments; a spectrum falling by a
 #: decade or more across the band (a filter's cut) gives well below 0.5.
 FLATNESS_WHITE = 0.5
+#: Top-band power over the white-noise estimate's above which that estimate misses most of
+#: the high-frequency error (a factor 2 in std).
+HF_EXCESS = 4.0
 #: Welch segment length (samples) of the flatness estimate, shortened to keep ≥ 8 segments.
 WELCH_SEGMENT = 256
 
@@ -77,6 +91,8 @@ class ColumnErrorModel:
         notes: one-line findings a report can show.
         flatness: spectral flatness of the column's upper half band (≈ 1 white, ≪ 1 when
             the high frequencies were filtered away); 1 when too short to tell.
+        hf_excess: mean PSD of the upper half band over white noise's of std
+            ``white_std`` (≈ 1 white; ≫ 1 when the noise estimate misses that band's power).
     """
 
     name: str
@@ -87,13 +103,15 @@ class ColumnErrorModel:
     kurtosis: float
     notes: tuple[str, ...] = ()
     flatness: float = 1.0
+    hf_excess: float = 1.0
 
     @property
     def filtered_upstream(self) -> bool:
         """Heavy tails with the high frequencies gone: filtered upstream (not quantisation)."""
         dominant = bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
             self.white_std
-        return bool(self.heavy_tailed and not dominant and self.flatness < FLATNESS_WHITE)
+        return bool(self.heavy_tailed and not dominant
+                    and (self.flatness < FLATNESS_WHITE or self.hf_excess > HF_EXCESS))
 
     @property
     def floor_std(self) -> float:
@@ -150,22 +168,31 @@ def quantisation_step(x: np.ndarray) -> float | None:
     return None
 
 
-def spectral_flatness(x: np.ndarray) -> float:
-    """Flatness of the upper half band of a column's Welch PSD (1 for white noise).
+def top_band(x: np.ndarray, white_std: float) -> tuple[float, float]:
+    """(flatness, excess) of the upper half band of a column's Welch PSD.
 
-    Geometric over arithmetic mean of the PSD between half and full Nyquist frequency
-    (Hann window, linear detrend per segment). Returns 1.0 when the column is too short for
-    8 segments of 32 samples, or has no power there (nothing to tell).
+    Flatness is the geometric over the arithmetic mean of the PSD between half and full
+    Nyquist frequency (Hann window, linear detrend per segment): ≈ 1 for white noise.
+    Excess is that band's mean PSD over white noise's of std ``white_std`` (2σ² per unit
+    of normalised frequency): ≈ 1 when the white estimate explains the band, infinite when
+    it is 0 and the band is not. Both are 1.0 when the column is too short for 8 segments of
+    32 samples or has no power there (nothing to tell).
+
+    Args:
+        x: the column's samples on a uniform grid.
+        white_std: its white-noise std estimate (column units).
     """
     x = np.asarray(x, dtype=np.float64)
     seg = min(WELCH_SEGMENT, x.size // 8)
     if seg < 32:
-        return 1.0
+        return 1.0, 1.0
     _, p = welch(x, nperseg=seg, detrend="linear")
     top = p[p.size // 2:]
     if not np.all(top > 0):
-        return 1.0
-    return float(np.exp(np.mean(np.log(top))) / np.mean(top))
+        return 1.0, 1.0
+    mean = float(np.mean(top))
+    excess = mean / (2.0 * white_std**2) if white_std > 0 else float("inf")
+    return float(np.exp(np.mean(np.log(top))) / mean), excess
 
 
 def kurtosis(d: np.ndarray) -> float:
@@ -187,23 +214,26 @@ def column_error_model(name: str, x: np.ndarray) -> ColumnErrorModel:
     limit = max(2.0 * 3.0, 3.0 + KURTOSIS_SIGMAS * np.sqrt(24.0 / n))
     dominant = q is not None and q / np.sqrt(12.0) > QUANT_DOMINANT * std
     heavy = bool(dominant or not np.isfinite(kurt) or kurt > limit)
-    flat = spectral_flatness(x) if heavy and not dominant else 1.0
+    flat, excess = top_band(x, std) if heavy and not dominant else (1.0, 1.0)
+    filtered = flat < FLATNESS_WHITE or excess > HF_EXCESS
     notes = []
     if dominant:
         notes.append(f"{name} is quantised (step {q:.4g}); error floor q/√12 = "
                      f"{q / np.sqrt(12.0):.3g}")
-    elif heavy and flat < FLATNESS_WHITE:
+    elif heavy and filtered:
         notes.append(f"{name} looks filtered or despiked upstream (kurtosis of its third "
                      f"differences {kurt:.3g}, white noise gives 3; high-frequency spectral "
-                     f"flatness {flat:.2f}, white noise gives ≈ 1): its noise estimate "
-                     "under-states its error")
+                     f"flatness {flat:.2f} and power {excess:.3g}x its noise estimate's, "
+                     "white noise gives ≈ 1 and 1): its noise estimate under-states its "
+                     "error")
     elif heavy:
         notes.append(f"{name}: heavy-tailed third differences (kurtosis {kurt:.3g}) but a "
-                     f"white high-frequency spectrum (flatness {flat:.2f}): kinks of the "
-                     "signal, not upstream filtering; its noise estimate is kept")
+                     f"white high-frequency spectrum at its noise level (flatness {flat:.2f}, "
+                     f"power {excess:.3g}x): kinks of the signal, not upstream filtering; "
+                     "its noise estimate is kept")
     return ColumnErrorModel(name=name, white_std=std, order=order, quantum=q,
                             heavy_tailed=heavy, kurtosis=kurt, notes=tuple(notes),
-                            flatness=flat)
+                            flatness=flat, hf_excess=excess)
 
 
 def autocorrelation_time(r: np.ndarray) -> float:

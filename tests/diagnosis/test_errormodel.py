@@ -104,3 +104,19 @@ def test_artefacts_are_seeded_and_record_what_they_did():
     assert np.max(np.diff(gap.t)) > 4.0
     coarse = artefacts.ARTEFACTS["coarse_100hz"].apply(rec, {}, np.random.default_rng(0))
     assert np.median(np.diff(coarse.t)) == pytest.approx(0.01)
+
+
+def test_kinks_of_the_signal_are_not_upstream_filtering():
+    """Heavy tails from the signal (velocity kinks at 100 Hz) keep a white top band; an
+    upstream median + wavelet denoiser removes it. Only the latter is ``filtered_upstream``."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 20.0, 0.01)
+    # a velocity with a kink (slope jump) at every zero: |sin|, as when friction reverses
+    dq = np.abs(np.sin(2 * np.pi * 0.4 * t)) + rng.normal(0.0, 2e-3, t.size)
+    kinked = column_error_model("dq", dq)
+    assert kinked.heavy_tailed and kinked.kurtosis > 6.0   # the old test flagged it
+    assert kinked.flatness > 0.8 and not kinked.filtered_upstream
+    assert "kinks of the signal" in kinked.notes[0]
+    rec = Recording("r", {"t": t, "q": np.cumsum(dq) * 0.01, "dq": dq})
+    den = column_error_model("dq", artefacts.upstream_denoise(rec, ["dq"])["dq"])
+    assert den.filtered_upstream and den.flatness < 0.5
