@@ -400,8 +400,8 @@ class ResidualResult:
         t: time of each row (s); uniform inside a segment, jumping across gaps.
         residual: physical residual, shape (N, n_channels), channel units.
         noise_rms: noise floor per channel (channel units): the residual's change under the
-            columns' error std (white noise or quantisation q/√12, the larger) plus the
-            numerical floor.
+            columns' errors (white noise of their std; a quantised angle's rounding error
+            propagated as a staircase, see :func:`noise_floor`) plus the numerical floor.
         signals: filtered signals and derivatives by name.
         raw: raw columns on the grid.
         smoother: the filter of the residual equation (the fit filters regressors with it).
