@@ -58,6 +58,7 @@ size and decision (named, rejected, cannot test, removed, demoted, not identifia
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -228,6 +229,9 @@ class Fitter:
         self.split = validation.split_rows(prepared.t, rows, seg, train_fraction)
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
+        #: the usable rows, increasing: every row set the fits read (training, validation,
+        #: test) lies in it, so the basis cache keeps only these rows of each regressor
+        self._usable = np.asarray(rows)
         self.t_split = self.split.t_split
         all_rows = np.arange(self.n)
         self.sig = prepared.rows(all_rows)
@@ -256,22 +260,49 @@ class Fitter:
             out = sm(e(lin, nl, self.sig, term.index, self.ctx))
         return out * self.mask
 
-    def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Linear basis (N, C, n_lin) and offset (N, C) of a term at nonlinear values nl."""
+    def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Linear basis and offset of a term at nonlinear values nl, on the usable rows.
+
+        Returns:
+            ``cols`` (U, C, n_lin) and ``off`` (U, C) on the usable rows (U of them, in
+            grid order; :meth:`at` maps grid rows to their positions), and whether the
+            offset is non-zero anywhere on the full grid. The regressors are evaluated (and
+            filtered) on the full grid; only the usable rows are kept, so that the cache of
+            the terms without nonlinear parameters holds U·C·(n_lin + 1) numbers per term,
+            not N·C·(n_lin + 1).
+        """
         key = (term.key, tuple(np.round(nl, 12)))
         if key in self._cache:
             return self._cache[key]
         e = term.effect
         k = len(e.lin)
-        off = self.output(term, np.zeros(k), nl)
-        cols = np.empty((self.n, self.c, k))
+        use = self._usable
+        full = self.output(term, np.zeros(k), nl)
+        off, off_any = full[use], bool(np.any(full))
+        del full
+        cols = np.empty((len(use), self.c, k))
         for i in range(k):
             unit = np.zeros(k)
             unit[i] = 1.0
-            cols[:, :, i] = self.output(term, unit, nl) - off
+            cols[:, :, i] = self.output(term, unit, nl)[use] - off
+        out = (cols, off, off_any)
         if not e.nl:
-            self._cache[key] = (cols, off)
-        return cols, off
+            self._cache[key] = out
+        return out
+
+    def at(self, rows: np.ndarray) -> np.ndarray:
+        """Positions of grid ``rows`` (usable rows, increasing) in :meth:`basis`' arrays.
+
+        Raises:
+            ValueError: a row is not a usable row (the fits read no other rows).
+        """
+        rows = np.asarray(rows)
+        pos = np.searchsorted(self._usable, rows)
+        if len(rows) and (pos[-1] >= len(self._usable) or
+                          not np.array_equal(self._usable[np.minimum(pos, len(self._usable)
+                                                                      - 1)], rows)):
+            raise ValueError("rows outside the usable rows of the split")
+        return pos
 
     def _context(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> None:
         self.ctx = self.sys.context(self.prepared, [(t.effect, t.index, None, nl)
@@ -280,11 +311,12 @@ class Fitter:
     def _design(self, terms: Sequence[Term], nls: Sequence[np.ndarray], rows: np.ndarray):
         self._context(terms, nls)
         xs, off = [], np.zeros((len(rows), self.c))
+        pos = self.at(rows)
         for t, nl in zip(terms, nls, strict=True):
-            cols, o = self.basis(t, nl)
-            off += o[rows]
+            cols, o, _ = self.basis(t, nl)
+            off += o[pos]
             if cols.shape[2]:
-                xs.append(cols[rows] * self.w[None, :, None])
+                xs.append(cols[pos] * self.w[None, :, None])
         x = np.concatenate(xs, axis=2).reshape(len(rows) * self.c, -1) if xs else \
             np.zeros((len(rows) * self.c, 0))
         return x, (off * self.w).ravel()
@@ -451,13 +483,17 @@ class Fitter:
     def information(self, term: Term, nl: np.ndarray, held_out: np.ndarray,
                     train: np.ndarray) -> float:
         """Held-out/training regressor energy per row of a term (:mod:`.validation`)."""
-        cols, off = self.basis(term, np.asarray(nl, float))
-        reg = np.concatenate([cols, off[:, :, None]], axis=2) if np.any(off) else cols
-        return validation.information_share(reg, held_out, train)
+        cols, off, off_any = self.basis(term, np.asarray(nl, float))
+        reg = np.concatenate([cols, off[:, :, None]], axis=2) if off_any else cols
+        return validation.information_share(reg, self.at(held_out), self.at(train))
 
-    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult
-                 ) -> dict[str, Any]:
-        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation)."""
+    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult,
+                 errors: np.ndarray | None = None) -> dict[str, Any]:
+        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation).
+
+        ``errors``: the whitened errors ``fit`` leaves on the validation rows, when ``fit``
+        no longer holds its predictions (:meth:`select`); computed from it otherwise.
+        """
         k = len(hyp)
         params: dict[str, float] = {}
         for i in range(len(fit.terms) - k, len(fit.terms)):
@@ -476,7 +512,8 @@ class Fitter:
                                     "is zero there)")
                 return entry
         limit = self.at_limit(fit)
-        g = likelihood_ratio(self._errors(base, self.valid), self._errors(fit, self.valid),
+        g = likelihood_ratio(self._errors(base, self.valid),
+                             self._errors(fit, self.valid) if errors is None else errors,
                              sum(t.effect.n_params for t in hyp))
         entry.update(gain=g.share_removed, statistic=g.statistic, p_value=g.p_value)
         if not g.testable:
@@ -514,8 +551,18 @@ class Fitter:
         tried: dict[tuple, dict[str, Any]] = {}
         while remaining and len(current.terms) < MAX_EFFECTS:
             hyps = self.hypotheses(remaining)
-            trials = [(h, self.fit_new(current, h)) for h in hyps]
-            evals = [self.evaluate(current, h, f) for h, f in trials]
+            # each trial fit is reduced at once to what the tests read (its parameters and
+            # its errors on the validation rows): a round never holds one full-grid
+            # prediction per hypothesis. The pick is refitted below (the same numbers).
+            trials, held = [], []
+            for h in hyps:
+                f = self.fit_new(current, h)
+                held.append((self._errors(f, self.valid),
+                             f.pred[-1][self.valid].ravel() if len(h) == 1 else None))
+                trials.append((h, dataclasses.replace(f, pred=[], jac=None)))
+                del f
+            evals = [self.evaluate(current, h, f, errors=e)
+                     for (h, f), (e, _) in zip(trials, held, strict=True)]
             testable = [e for e in evals if e["_testable"]]
             alpha = ALPHA / max(len(testable), 1)
             for e in evals:
@@ -537,7 +584,10 @@ class Fitter:
             near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
             pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
                                             -gains[i]))
-            hyp, fit = trials[pick]
+            hyp = trials[pick][0]
+            ctx = self.ctx       # the refit leaves the effects' context as the round did
+            fit = self.fit_new(current, hyp)
+            self.ctx = ctx
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
@@ -549,7 +599,10 @@ class Fitter:
                         f"{e['reason']}"))
             sel.history[-1].update(term="+".join(t.label for t in hyp),
                                    gain=float(gains[pick]), p_value=e["p_value"], accepted=True)
-            self._aliases(sel, hyp, fit, trials, gains, float(gains[pick]))
+            self._aliases(sel, hyp, held[pick][1],
+                          [(h, a) for (h, _), (_, a) in zip(trials, held, strict=True)],
+                          gains, float(gains[pick]))
+            del trials, held
             current = fit
             done = {t.key for t in hyp}
             remaining = [t for t in remaining if t.key not in done]
@@ -694,15 +747,17 @@ class Fitter:
         """Backward pass: drop terms whose held-out gain, given the others, is not significant."""
         while len(current.terms) > 1:
             alpha = ALPHA / len(current.terms)
-            trials = []
+            worst = None     # max over (p, -share) as max() picks it: the first of equals
             for i in range(len(current.terms)):
                 f = self._drop(current, i)
                 g = likelihood_ratio(self._errors(f, self.valid),
                                      self._errors(current, self.valid),
                                      current.terms[i].effect.n_params)
                 p = g.p_value if g.testable else 1.0
-                trials.append((p, -g.share_removed, i, f, g))
-            p, _, i, f, g = max(trials, key=lambda x: (x[0], x[1]))
+                if worst is None or (p, -g.share_removed) > worst[:2]:
+                    worst = (p, -g.share_removed, i, f, g)
+                del f
+            p, _, i, f, g = worst
             if p < alpha or self.at_limit(f):
                 break
             t = current.terms[i]
@@ -717,10 +772,10 @@ class Fitter:
 
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
         """Whether a term is a constant offset (its only regressor constant over rows)."""
-        cols, off = self.basis(term, np.asarray(nl, float))
-        if cols.shape[2] != 1 or term.effect.nl or np.any(off):
+        cols, _, off_any = self.basis(term, np.asarray(nl, float))
+        if cols.shape[2] != 1 or term.effect.nl or off_any:
             return False
-        x = cols[self.fit_rows, :, 0]
+        x = cols[self.at(self.fit_rows), :, 0]
         return bool(np.any(x) and np.allclose(x, x[0], rtol=1e-6, atol=0.0))
 
     def _rates(self) -> dict[str, np.ndarray]:
@@ -744,7 +799,7 @@ class Fitter:
                 i += 1
                 continue
             sc = self.w / current.scale      # channel units → unit residual std
-            x = self.basis(t, current.nl[i])[0][self.fit_rows, :, 0] * sc
+            x = self.basis(t, current.nl[i])[0][self.at(self.fit_rows), :, 0] * sc
             others = current.total(self.n, self.c) - current.pred[i]
             e = (self.r[self.fit_rows] - others[self.fit_rows]) * sc
             s = np.sqrt(current.tau)
@@ -819,17 +874,18 @@ class Fitter:
         sel.identifiability = {"combinations": found}
         return current
 
-    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], fit: FitResult, trials, gains,
-                 gain: float) -> None:
+    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], mine: np.ndarray | None,
+                 trials, gains, gain: float) -> None:
         """Warn where another candidate explains the same held-out residual as ``hyp``.
 
-        ``gain``/``gains`` are shares of the (per-channel scaled) held-out loss removed.
+        ``mine`` and each trial's second element are the new term's contribution on the
+        validation rows (flattened; ``None`` for a family). ``gain``/``gains`` are shares
+        of the (per-channel scaled) held-out loss removed.
         """
         if len(hyp) != 1:
             return
         (term,) = hyp
-        mine = fit.pred[-1][self.valid].ravel()
-        for (h, f), g in zip(trials, gains, strict=True):
+        for (h, other), g in zip(trials, gains, strict=True):
             if len(h) != 1 or h[0].key == term.key or not np.isfinite(g) or \
                     g < ALIAS_GAIN * gain:
                 continue
@@ -839,7 +895,6 @@ class Fitter:
                                   term.effect.name in t.effect.generalizes)
             if nested:
                 continue
-            other = f.pred[-1][self.valid].ravel()
             if np.std(mine) == 0 or np.std(other) == 0:
                 continue
             corr = float(np.corrcoef(mine, other)[0, 1])
