@@ -233,8 +233,8 @@ class Fitter:
         #: test) lies in it, so the basis cache keeps only these rows of each regressor
         self._usable = np.asarray(rows)
         self.t_split = self.split.t_split
-        all_rows = np.arange(self.n)
-        self.sig = prepared.rows(all_rows)
+        # the prepared signals themselves (read-only views, no copy) on every row
+        self.sig = {**prepared.signals, "idx": np.arange(self.n)}
         self.sig0 = prepared.zero_derivatives(self.sig)
         # what the effects may read (forms.EffectContext)
         self.ctx = system.context(prepared)
