@@ -559,7 +559,7 @@ class Fitter:
                 f = self.fit_new(current, h)
                 held.append((self._errors(f, self.valid),
                              f.pred[-1][self.valid].ravel() if len(h) == 1 else None))
-                trials.append((h, dataclasses.replace(f, pred=[], jac=None)))
+                trials.append((h, _light(f)))
                 del f
             evals = [self.evaluate(current, h, f, errors=e)
                      for (h, f), (e, _) in zip(trials, held, strict=True)]
@@ -645,10 +645,11 @@ class Fitter:
                         validation.NO_INFORMATION:
                     continue
                 keep = [j for j in range(len(terms)) if j != i]
-                without = self.fit([terms[j] for j in keep], [final.nl[j] for j in keep],
-                                   rows=self.fit_rows)
-                g = likelihood_ratio(self._errors(without, self.test),
-                                     self._errors(final, self.test), t.effect.n_params)
+                without = self._errors(self.fit([terms[j] for j in keep],
+                                                [final.nl[j] for j in keep],
+                                                rows=self.fit_rows), self.test)
+                g = likelihood_ratio(without, self._errors(final, self.test),
+                                     t.effect.n_params)
                 p = g.p_value if g.testable else 0.0
                 if p >= alpha and (worst is None or p > worst[0]):
                     worst = (p, i, g)
@@ -687,17 +688,18 @@ class Fitter:
             for alt in self._alternatives.get(term.key, ()):
                 if any(u.key == alt.key for u in current.terms):
                     continue
-                other = self.fit_new(self._drop(current, i), alt)
+                # only the parameters of ``other`` and the two refits' test errors are read:
+                # no full-grid prediction is kept beside ``current``'s
+                other = _light(self.fit_new(_light(self._drop(current, i)), alt))
                 if self.at_limit(other):
                     continue
-                mine = self.fit(current.terms, current.nl, rows=self.fit_rows)
-                theirs = self.fit(other.terms, other.nl, rows=self.fit_rows)
-                g = likelihood_ratio(self._errors(mine, self.test),
-                                     self._errors(theirs, self.test), alt.effect.n_params)
+                mine = self._errors(self.fit(current.terms, current.nl, rows=self.fit_rows),
+                                    self.test)
+                theirs = self._errors(self.fit(other.terms, other.nl, rows=self.fit_rows),
+                                      self.test)
+                g = likelihood_ratio(mine, theirs, alt.effect.n_params)
                 if not (g.testable and g.p_value < ALPHA and g.share_removed > 0):
-                    back = likelihood_ratio(self._errors(theirs, self.test),
-                                            self._errors(mine, self.test),
-                                            term.effect.n_params)
+                    back = likelihood_ratio(theirs, mine, term.effect.n_params)
                     if back.testable and back.p_value < ALPHA and back.share_removed > 0:
                         self._settled(sel, term, alt, back)
                     continue
@@ -910,6 +912,11 @@ class Fitter:
                              f"left before it; contributions correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
+
+
+def _light(fit: FitResult) -> FitResult:
+    """``fit`` without its full-grid predictions and Jacobian (its parameters and scores)."""
+    return dataclasses.replace(fit, pred=[], jac=None)
 
 
 def _params(fit: FitResult, i: int) -> dict[str, float]:
