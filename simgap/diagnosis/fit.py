@@ -117,7 +117,8 @@ class FitResult:
         lin: linear parameters per term.
         nl: nonlinear parameters per term.
         cov: covariance of all parameters (per term: linear then nonlinear, in term order).
-        pred: filtered contribution of each term on the full grid, (N, C) each.
+        pred: filtered contribution of each term on the full grid, (N, C) each, or on the
+            grid rows :attr:`rows` only.
         sse_test: whitened squared error on the outer test rows.
         sse_train: whitened squared error on the rows it was fitted on.
         sse_valid: whitened squared error on the validation rows.
@@ -127,6 +128,9 @@ class FitResult:
         tau: autocorrelation time of the whitened fitted residual (thinned rows), ≥ 1.
         s2: whitened residual variance of the fit (all channels pooled).
         scale: (C,) whitened residual std per channel.
+        rows: the grid rows :attr:`pred` holds (increasing), or ``None`` for the full grid.
+            The fits inside the selection keep the usable rows only (the only rows its
+            tests read); the selection's final fit holds the full grid.
     """
 
     terms: list[Term]
@@ -141,10 +145,11 @@ class FitResult:
     tau: float = 1.0
     s2: float = 1.0
     scale: np.ndarray | None = None
+    rows: np.ndarray | None = None
 
     def total(self, n: int, c: int) -> np.ndarray:
-        """Sum of the contributions (N, C)."""
-        out = np.zeros((n, c))
+        """Sum of the contributions (N, C), or (len(rows), C) on :attr:`rows`."""
+        out = np.zeros((n if self.rows is None else len(self.rows), c))
         for p in self.pred:
             out += p
         return out
@@ -338,8 +343,12 @@ class Fitter:
         return sol.x, y - off - x @ sol.x, x
 
     def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None,
-            rows: np.ndarray | None = None) -> FitResult:
-        """Fit the terms on ``rows`` (default the training blocks); score the other parts."""
+            rows: np.ndarray | None = None, full: bool = True) -> FitResult:
+        """Fit the terms on ``rows`` (default the training blocks); score the other parts.
+
+        ``full``: keep each term's contribution on the full grid; otherwise on the usable
+        rows only (:attr:`FitResult.rows`; the same numbers there), as the selection does.
+        """
         rows = self.train if rows is None else rows
         terms = list(terms)
         nls0 = [np.asarray(v, dtype=float) for v in (nl_start or
@@ -418,19 +427,39 @@ class Fitter:
             lins.append(lin_all[i:i + k])
             i += k
         self._context(terms, nls)
-        pred = [self.output(t, lv, nv) for t, lv, nv in zip(terms, lins, nls, strict=True)]
-        total = np.zeros((self.n, self.c))
+        keep = None if full else self._usable
+        pred = [self.output(t, lv, nv) if full else self.output(t, lv, nv)[keep]
+                for t, lv, nv in zip(terms, lins, nls, strict=True)]
+        total = np.zeros((self.n if full else len(keep), self.c))
         for p in pred:
             total += p
 
         def sse(part):
-            e = ((self.r[part] - total[part]) * self.w).ravel()
+            e = ((self.r[part] - total[part if full else self.at(part)]) * self.w).ravel()
             return float(e @ e)
         tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
         return FitResult(terms=terms, lin=lins, nl=nls, cov=cov, pred=pred,
                          sse_test=sse(self.test), sse_train=sse(rows),
                          sse_valid=sse(self.valid), jac=jac, tau=float(tau), s2=s2,
-                         scale=scale)
+                         scale=scale, rows=keep)
+
+    def full(self, fit: FitResult) -> FitResult:
+        """``fit`` with each term's contribution on the full grid (recomputed if needed).
+
+        The effects' context is left as it was.
+        """
+        if fit.rows is None:
+            return fit
+        ctx = self.ctx
+        self._context(fit.terms, fit.nl)
+        pred = [self.output(t, lv, nv) for t, lv, nv in zip(fit.terms, fit.lin, fit.nl,
+                                                             strict=True)]
+        self.ctx = ctx
+        return dataclasses.replace(fit, pred=pred, rows=None)
+
+    def on(self, fit: FitResult, values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``values`` (one of ``fit``'s contributions or its total) at grid ``rows``."""
+        return values[rows if fit.rows is None else self.at(rows)]
 
     @staticmethod
     def at_limit(fit: FitResult) -> list[str]:
@@ -449,13 +478,17 @@ class Fitter:
                     break
         return out
 
-    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term]) -> FitResult:
-        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid."""
+    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term], full: bool = True
+                ) -> FitResult:
+        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid.
+
+        ``full``: as in :meth:`fit`.
+        """
         new = [term] if isinstance(term, Term) else list(term)
         starts = [np.asarray(v) for v in chosen.nl]
         terms = chosen.terms + new
         if not any(t.effect.nl for t in new):
-            return self.fit(terms, starts + [np.zeros(0)] * len(new))
+            return self.fit(terms, starts + [np.zeros(0)] * len(new), full=full)
         grids = [g for t in new for g in t.effect.nl_grid]
         sizes = [len(t.effect.nl) for t in new]
         grid = np.array(np.meshgrid(*grids)).reshape(len(grids), -1).T
@@ -473,12 +506,12 @@ class Fitter:
             sse = float(r @ r)
             if sse < best_sse:
                 best, best_sse = parts, sse
-        return self.fit(terms, starts + best)
+        return self.fit(terms, starts + best, full=full)
 
     # -- testing -----------------------------------------------------------------------
     def _errors(self, fit: FitResult, rows: np.ndarray) -> np.ndarray:
         """Whitened errors (rows, C) a fit leaves on ``rows``."""
-        return (self.r[rows] - fit.total(self.n, self.c)[rows]) * self.w
+        return (self.r[rows] - self.on(fit, fit.total(self.n, self.c), rows)) * self.w
 
     def information(self, term: Term, nl: np.ndarray, held_out: np.ndarray,
                     train: np.ndarray) -> float:
@@ -545,7 +578,7 @@ class Fitter:
     # -- selection ---------------------------------------------------------------------
     def select(self, candidates: Sequence[Term]) -> Selection:
         """Forward selection by held-out tests (see the module docstring)."""
-        current = self.fit([])
+        current = self.fit([], full=False)
         sel = Selection(fit=current)
         remaining = list(candidates)
         tried: dict[tuple, dict[str, Any]] = {}
@@ -556,9 +589,10 @@ class Fitter:
             # prediction per hypothesis. The pick is refitted below (the same numbers).
             trials, held = [], []
             for h in hyps:
-                f = self.fit_new(current, h)
+                f = self.fit_new(current, h, full=False)
                 held.append((self._errors(f, self.valid),
-                             f.pred[-1][self.valid].ravel() if len(h) == 1 else None))
+                             self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
+                             else None))
                 trials.append((h, _light(f)))
                 del f
             evals = [self.evaluate(current, h, f, errors=e)
@@ -586,7 +620,7 @@ class Fitter:
                                             -gains[i]))
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
-            fit = self.fit_new(current, hyp)
+            fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
@@ -614,7 +648,7 @@ class Fitter:
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
                 tried[(t.key,)]["params"] = _params(final, i)
-        sel.fit = final
+        sel.fit = final = self.full(final)
         joint = self._joint(final)
         joint.pop("_analysis", None)
         joint["combinations"] = sel.identifiability.get("combinations", []) + \
@@ -635,7 +669,7 @@ class Fitter:
         """
         terms, nls = list(current.terms), list(current.nl)
         while True:
-            final = self.fit(terms, nls, rows=self.fit_rows)
+            final = self.fit(terms, nls, rows=self.fit_rows, full=False)
             if not terms:
                 return final
             alpha = ALPHA / len(terms)
@@ -647,7 +681,7 @@ class Fitter:
                 keep = [j for j in range(len(terms)) if j != i]
                 without = self._errors(self.fit([terms[j] for j in keep],
                                                 [final.nl[j] for j in keep],
-                                                rows=self.fit_rows), self.test)
+                                                rows=self.fit_rows, full=False), self.test)
                 g = likelihood_ratio(without, self._errors(final, self.test),
                                      t.effect.n_params)
                 p = g.p_value if g.testable else 0.0
@@ -690,13 +724,13 @@ class Fitter:
                     continue
                 # only the parameters of ``other`` and the two refits' test errors are read:
                 # no full-grid prediction is kept beside ``current``'s
-                other = _light(self.fit_new(_light(self._drop(current, i)), alt))
+                other = _light(self.fit_new(_light(self._drop(current, i)), alt, full=False))
                 if self.at_limit(other):
                     continue
-                mine = self._errors(self.fit(current.terms, current.nl, rows=self.fit_rows),
-                                    self.test)
-                theirs = self._errors(self.fit(other.terms, other.nl, rows=self.fit_rows),
-                                      self.test)
+                mine = self._errors(self.fit(current.terms, current.nl, rows=self.fit_rows,
+                                             full=False), self.test)
+                theirs = self._errors(self.fit(other.terms, other.nl, rows=self.fit_rows,
+                                               full=False), self.test)
                 g = likelihood_ratio(mine, theirs, alt.effect.n_params)
                 if not (g.testable and g.p_value < ALPHA and g.share_removed > 0):
                     back = likelihood_ratio(theirs, mine, term.effect.n_params)
@@ -721,8 +755,8 @@ class Fitter:
                 order = list(range(len(other.terms) - 1))
                 order.insert(i, len(other.terms) - 1)
                 return self._separate_aliases(
-                    self.fit([other.terms[j] for j in order], [other.nl[j] for j in order]),
-                    sel, tried)
+                    self.fit([other.terms[j] for j in order], [other.nl[j] for j in order],
+                             full=False), sel, tried)
         return current
 
     @staticmethod
@@ -739,7 +773,8 @@ class Fitter:
 
     def _drop(self, current: FitResult, i: int) -> FitResult:
         keep = [j for j in range(len(current.terms)) if j != i]
-        return self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep])
+        return self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep],
+                        full=current.rows is None)
 
     def _forget(self, sel: Selection, t: Term) -> None:
         sel.warnings = [w for w in sel.warnings if w["effects"][0] != t.effect.name
@@ -803,7 +838,7 @@ class Fitter:
             sc = self.w / current.scale      # channel units → unit residual std
             x = self.basis(t, current.nl[i])[0][self.at(self.fit_rows), :, 0] * sc
             others = current.total(self.n, self.c) - current.pred[i]
-            e = (self.r[self.fit_rows] - others[self.fit_rows]) * sc
+            e = (self.r[self.fit_rows] - self.on(current, others, self.fit_rows)) * sc
             s = np.sqrt(current.tau)
             flip = None
             for name, v in rates.items():
