@@ -226,7 +226,10 @@ class Fitter:
         residual, noise = prepared.residual, prepared.noise_rms
         self.n, self.c = residual.shape
         mask = prepared.fit_mask if mask is None else mask
-        self.mask = np.asarray(mask).astype(float)
+        mask = np.asarray(mask)
+        # a boolean mask is kept as is (1 byte a value): x * mask casts it to 1.0/0.0, the
+        # same numbers as a float mask
+        self.mask = mask if mask.dtype == bool else mask.astype(float)
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
