@@ -240,6 +240,9 @@ class Fitter:
         #: the usable rows, increasing: every row set the fits read (training, validation,
         #: test) lies in it, so the basis cache keeps only these rows of each regressor
         self._usable = np.asarray(rows)
+        self._positions: dict[int, np.ndarray] = {}
+        self._positions = {id(part): self.at(part) for part in (self.train, self.valid,
+                                                                 self.fit_rows, self.test)}
         self.t_split = self.split.t_split
         # the prepared signals themselves (read-only views, no copy) on every row
         self.sig = {**prepared.signals, "idx": np.arange(self.n)}
@@ -304,6 +307,9 @@ class Fitter:
         Raises:
             ValueError: a row is not a usable row (the fits read no other rows).
         """
+        known = self._positions.get(id(rows))
+        if known is not None:     # one of the split's own (unchanged) row sets
+            return known
         rows = np.asarray(rows)
         pos = np.searchsorted(self._usable, rows)
         if len(rows) and (pos[-1] >= len(self._usable) or
