@@ -58,6 +58,7 @@ size and decision (named, rejected, cannot test, removed, demoted, not identifia
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -116,7 +117,8 @@ class FitResult:
         lin: linear parameters per term.
         nl: nonlinear parameters per term.
         cov: covariance of all parameters (per term: linear then nonlinear, in term order).
-        pred: filtered contribution of each term on the full grid, (N, C) each.
+        pred: filtered contribution of each term on the full grid, (N, C) each, or on the
+            grid rows :attr:`rows` only.
         sse_test: whitened squared error on the outer test rows.
         sse_train: whitened squared error on the rows it was fitted on.
         sse_valid: whitened squared error on the validation rows.
@@ -126,6 +128,9 @@ class FitResult:
         tau: autocorrelation time of the whitened fitted residual (thinned rows), ≥ 1.
         s2: whitened residual variance of the fit (all channels pooled).
         scale: (C,) whitened residual std per channel.
+        rows: the grid rows :attr:`pred` holds (increasing), or ``None`` for the full grid.
+            The fits inside the selection keep the usable rows only (the only rows its
+            tests read); the selection's final fit holds the full grid.
     """
 
     terms: list[Term]
@@ -140,10 +145,11 @@ class FitResult:
     tau: float = 1.0
     s2: float = 1.0
     scale: np.ndarray | None = None
+    rows: np.ndarray | None = None
 
     def total(self, n: int, c: int) -> np.ndarray:
-        """Sum of the contributions (N, C)."""
-        out = np.zeros((n, c))
+        """Sum of the contributions (N, C), or (len(rows), C) on :attr:`rows`."""
+        out = np.zeros((n if self.rows is None else len(self.rows), c))
         for p in self.pred:
             out += p
         return out
@@ -220,7 +226,10 @@ class Fitter:
         residual, noise = prepared.residual, prepared.noise_rms
         self.n, self.c = residual.shape
         mask = prepared.fit_mask if mask is None else mask
-        self.mask = np.asarray(mask).astype(float)
+        mask = np.asarray(mask)
+        # a boolean mask is kept as is (1 byte a value): x * mask casts it to 1.0/0.0, the
+        # same numbers as a float mask
+        self.mask = mask if mask.dtype == bool else mask.astype(float)
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
@@ -228,9 +237,15 @@ class Fitter:
         self.split = validation.split_rows(prepared.t, rows, seg, train_fraction)
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
+        #: the usable rows, increasing: every row set the fits read (training, validation,
+        #: test) lies in it, so the basis cache keeps only these rows of each regressor
+        self._usable = np.asarray(rows)
+        self._positions: dict[int, np.ndarray] = {}
+        self._positions = {id(part): self.at(part) for part in (self.train, self.valid,
+                                                                 self.fit_rows, self.test)}
         self.t_split = self.split.t_split
-        all_rows = np.arange(self.n)
-        self.sig = prepared.rows(all_rows)
+        # the prepared signals themselves (read-only views, no copy) on every row
+        self.sig = {**prepared.signals, "idx": np.arange(self.n)}
         self.sig0 = prepared.zero_derivatives(self.sig)
         # what the effects may read (forms.EffectContext)
         self.ctx = system.context(prepared)
@@ -256,22 +271,52 @@ class Fitter:
             out = sm(e(lin, nl, self.sig, term.index, self.ctx))
         return out * self.mask
 
-    def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Linear basis (N, C, n_lin) and offset (N, C) of a term at nonlinear values nl."""
+    def basis(self, term: Term, nl: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Linear basis and offset of a term at nonlinear values nl, on the usable rows.
+
+        Returns:
+            ``cols`` (U, C, n_lin) and ``off`` (U, C) on the usable rows (U of them, in
+            grid order; :meth:`at` maps grid rows to their positions), and whether the
+            offset is non-zero anywhere on the full grid. The regressors are evaluated (and
+            filtered) on the full grid; only the usable rows are kept, so that the cache of
+            the terms without nonlinear parameters holds U·C·(n_lin + 1) numbers per term,
+            not N·C·(n_lin + 1).
+        """
         key = (term.key, tuple(np.round(nl, 12)))
         if key in self._cache:
             return self._cache[key]
         e = term.effect
         k = len(e.lin)
-        off = self.output(term, np.zeros(k), nl)
-        cols = np.empty((self.n, self.c, k))
+        use = self._usable
+        full = self.output(term, np.zeros(k), nl)
+        off, off_any = full[use], bool(np.any(full))
+        del full
+        cols = np.empty((len(use), self.c, k))
         for i in range(k):
             unit = np.zeros(k)
             unit[i] = 1.0
-            cols[:, :, i] = self.output(term, unit, nl) - off
+            cols[:, :, i] = self.output(term, unit, nl)[use] - off
+        out = (cols, off, off_any)
         if not e.nl:
-            self._cache[key] = (cols, off)
-        return cols, off
+            self._cache[key] = out
+        return out
+
+    def at(self, rows: np.ndarray) -> np.ndarray:
+        """Positions of grid ``rows`` (usable rows, increasing) in :meth:`basis`' arrays.
+
+        Raises:
+            ValueError: a row is not a usable row (the fits read no other rows).
+        """
+        known = self._positions.get(id(rows))
+        if known is not None:     # one of the split's own (unchanged) row sets
+            return known
+        rows = np.asarray(rows)
+        pos = np.searchsorted(self._usable, rows)
+        if len(rows) and (pos[-1] >= len(self._usable) or
+                          not np.array_equal(self._usable[np.minimum(pos, len(self._usable)
+                                                                      - 1)], rows)):
+            raise ValueError("rows outside the usable rows of the split")
+        return pos
 
     def _context(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> None:
         self.ctx = self.sys.context(self.prepared, [(t.effect, t.index, None, nl)
@@ -280,11 +325,12 @@ class Fitter:
     def _design(self, terms: Sequence[Term], nls: Sequence[np.ndarray], rows: np.ndarray):
         self._context(terms, nls)
         xs, off = [], np.zeros((len(rows), self.c))
+        pos = self.at(rows)
         for t, nl in zip(terms, nls, strict=True):
-            cols, o = self.basis(t, nl)
-            off += o[rows]
+            cols, o, _ = self.basis(t, nl)
+            off += o[pos]
             if cols.shape[2]:
-                xs.append(cols[rows] * self.w[None, :, None])
+                xs.append(cols[pos] * self.w[None, :, None])
         x = np.concatenate(xs, axis=2).reshape(len(rows) * self.c, -1) if xs else \
             np.zeros((len(rows) * self.c, 0))
         return x, (off * self.w).ravel()
@@ -306,8 +352,12 @@ class Fitter:
         return sol.x, y - off - x @ sol.x, x
 
     def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None,
-            rows: np.ndarray | None = None) -> FitResult:
-        """Fit the terms on ``rows`` (default the training blocks); score the other parts."""
+            rows: np.ndarray | None = None, full: bool = True) -> FitResult:
+        """Fit the terms on ``rows`` (default the training blocks); score the other parts.
+
+        ``full``: keep each term's contribution on the full grid; otherwise on the usable
+        rows only (:attr:`FitResult.rows`; the same numbers there), as the selection does.
+        """
         rows = self.train if rows is None else rows
         terms = list(terms)
         nls0 = [np.asarray(v, dtype=float) for v in (nl_start or
@@ -386,19 +436,39 @@ class Fitter:
             lins.append(lin_all[i:i + k])
             i += k
         self._context(terms, nls)
-        pred = [self.output(t, lv, nv) for t, lv, nv in zip(terms, lins, nls, strict=True)]
-        total = np.zeros((self.n, self.c))
+        keep = None if full else self._usable
+        pred = [self.output(t, lv, nv) if full else self.output(t, lv, nv)[keep]
+                for t, lv, nv in zip(terms, lins, nls, strict=True)]
+        total = np.zeros((self.n if full else len(keep), self.c))
         for p in pred:
             total += p
 
         def sse(part):
-            e = ((self.r[part] - total[part]) * self.w).ravel()
+            e = ((self.r[part] - total[part if full else self.at(part)]) * self.w).ravel()
             return float(e @ e)
         tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
         return FitResult(terms=terms, lin=lins, nl=nls, cov=cov, pred=pred,
                          sse_test=sse(self.test), sse_train=sse(rows),
                          sse_valid=sse(self.valid), jac=jac, tau=float(tau), s2=s2,
-                         scale=scale)
+                         scale=scale, rows=keep)
+
+    def full(self, fit: FitResult) -> FitResult:
+        """``fit`` with each term's contribution on the full grid (recomputed if needed).
+
+        The effects' context is left as it was.
+        """
+        if fit.rows is None:
+            return fit
+        ctx = self.ctx
+        self._context(fit.terms, fit.nl)
+        pred = [self.output(t, lv, nv) for t, lv, nv in zip(fit.terms, fit.lin, fit.nl,
+                                                             strict=True)]
+        self.ctx = ctx
+        return dataclasses.replace(fit, pred=pred, rows=None)
+
+    def on(self, fit: FitResult, values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``values`` (one of ``fit``'s contributions or its total) at grid ``rows``."""
+        return values[rows if fit.rows is None else self.at(rows)]
 
     @staticmethod
     def at_limit(fit: FitResult) -> list[str]:
@@ -417,13 +487,17 @@ class Fitter:
                     break
         return out
 
-    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term]) -> FitResult:
-        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid."""
+    def fit_new(self, chosen: FitResult, term: Term | Sequence[Term], full: bool = True
+                ) -> FitResult:
+        """Fit ``chosen`` plus new term(s), starting the new nonlinear ones on a grid.
+
+        ``full``: as in :meth:`fit`.
+        """
         new = [term] if isinstance(term, Term) else list(term)
         starts = [np.asarray(v) for v in chosen.nl]
         terms = chosen.terms + new
         if not any(t.effect.nl for t in new):
-            return self.fit(terms, starts + [np.zeros(0)] * len(new))
+            return self.fit(terms, starts + [np.zeros(0)] * len(new), full=full)
         grids = [g for t in new for g in t.effect.nl_grid]
         sizes = [len(t.effect.nl) for t in new]
         grid = np.array(np.meshgrid(*grids)).reshape(len(grids), -1).T
@@ -441,23 +515,27 @@ class Fitter:
             sse = float(r @ r)
             if sse < best_sse:
                 best, best_sse = parts, sse
-        return self.fit(terms, starts + best)
+        return self.fit(terms, starts + best, full=full)
 
     # -- testing -----------------------------------------------------------------------
     def _errors(self, fit: FitResult, rows: np.ndarray) -> np.ndarray:
         """Whitened errors (rows, C) a fit leaves on ``rows``."""
-        return (self.r[rows] - fit.total(self.n, self.c)[rows]) * self.w
+        return (self.r[rows] - self.on(fit, fit.total(self.n, self.c), rows)) * self.w
 
     def information(self, term: Term, nl: np.ndarray, held_out: np.ndarray,
                     train: np.ndarray) -> float:
         """Held-out/training regressor energy per row of a term (:mod:`.validation`)."""
-        cols, off = self.basis(term, np.asarray(nl, float))
-        reg = np.concatenate([cols, off[:, :, None]], axis=2) if np.any(off) else cols
-        return validation.information_share(reg, held_out, train)
+        cols, off, off_any = self.basis(term, np.asarray(nl, float))
+        reg = np.concatenate([cols, off[:, :, None]], axis=2) if off_any else cols
+        return validation.information_share(reg, self.at(held_out), self.at(train))
 
-    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult
-                 ) -> dict[str, Any]:
-        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation)."""
+    def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult,
+                 errors: np.ndarray | None = None) -> dict[str, Any]:
+        """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation).
+
+        ``errors``: the whitened errors ``fit`` leaves on the validation rows, when ``fit``
+        no longer holds its predictions (:meth:`select`); computed from it otherwise.
+        """
         k = len(hyp)
         params: dict[str, float] = {}
         for i in range(len(fit.terms) - k, len(fit.terms)):
@@ -476,7 +554,8 @@ class Fitter:
                                     "is zero there)")
                 return entry
         limit = self.at_limit(fit)
-        g = likelihood_ratio(self._errors(base, self.valid), self._errors(fit, self.valid),
+        g = likelihood_ratio(self._errors(base, self.valid),
+                             self._errors(fit, self.valid) if errors is None else errors,
                              sum(t.effect.n_params for t in hyp))
         entry.update(gain=g.share_removed, statistic=g.statistic, p_value=g.p_value)
         if not g.testable:
@@ -508,14 +587,25 @@ class Fitter:
     # -- selection ---------------------------------------------------------------------
     def select(self, candidates: Sequence[Term]) -> Selection:
         """Forward selection by held-out tests (see the module docstring)."""
-        current = self.fit([])
+        current = self.fit([], full=False)
         sel = Selection(fit=current)
         remaining = list(candidates)
         tried: dict[tuple, dict[str, Any]] = {}
         while remaining and len(current.terms) < MAX_EFFECTS:
             hyps = self.hypotheses(remaining)
-            trials = [(h, self.fit_new(current, h)) for h in hyps]
-            evals = [self.evaluate(current, h, f) for h, f in trials]
+            # each trial fit is reduced at once to what the tests read (its parameters and
+            # its errors on the validation rows): a round never holds one full-grid
+            # prediction per hypothesis. The pick is refitted below (the same numbers).
+            trials, held = [], []
+            for h in hyps:
+                f = self.fit_new(current, h, full=False)
+                held.append((self._errors(f, self.valid),
+                             self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
+                             else None))
+                trials.append((h, _light(f)))
+                del f
+            evals = [self.evaluate(current, h, f, errors=e)
+                     for (h, f), (e, _) in zip(trials, held, strict=True)]
             testable = [e for e in evals if e["_testable"]]
             alpha = ALPHA / max(len(testable), 1)
             for e in evals:
@@ -537,7 +627,10 @@ class Fitter:
             near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
             pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
                                             -gains[i]))
-            hyp, fit = trials[pick]
+            hyp = trials[pick][0]
+            ctx = self.ctx       # the refit leaves the effects' context as the round did
+            fit = self.fit_new(current, hyp, full=False)
+            self.ctx = ctx
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
@@ -549,7 +642,10 @@ class Fitter:
                         f"{e['reason']}"))
             sel.history[-1].update(term="+".join(t.label for t in hyp),
                                    gain=float(gains[pick]), p_value=e["p_value"], accepted=True)
-            self._aliases(sel, hyp, fit, trials, gains, float(gains[pick]))
+            self._aliases(sel, hyp, held[pick][1],
+                          [(h, a) for (h, _), (_, a) in zip(trials, held, strict=True)],
+                          gains, float(gains[pick]))
+            del trials, held
             current = fit
             done = {t.key for t in hyp}
             remaining = [t for t in remaining if t.key not in done]
@@ -561,7 +657,7 @@ class Fitter:
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
                 tried[(t.key,)]["params"] = _params(final, i)
-        sel.fit = final
+        sel.fit = final = self.full(final)
         joint = self._joint(final)
         joint.pop("_analysis", None)
         joint["combinations"] = sel.identifiability.get("combinations", []) + \
@@ -582,7 +678,7 @@ class Fitter:
         """
         terms, nls = list(current.terms), list(current.nl)
         while True:
-            final = self.fit(terms, nls, rows=self.fit_rows)
+            final = self.fit(terms, nls, rows=self.fit_rows, full=False)
             if not terms:
                 return final
             alpha = ALPHA / len(terms)
@@ -592,10 +688,11 @@ class Fitter:
                         validation.NO_INFORMATION:
                     continue
                 keep = [j for j in range(len(terms)) if j != i]
-                without = self.fit([terms[j] for j in keep], [final.nl[j] for j in keep],
-                                   rows=self.fit_rows)
-                g = likelihood_ratio(self._errors(without, self.test),
-                                     self._errors(final, self.test), t.effect.n_params)
+                without = self._errors(self.fit([terms[j] for j in keep],
+                                                [final.nl[j] for j in keep],
+                                                rows=self.fit_rows, full=False), self.test)
+                g = likelihood_ratio(without, self._errors(final, self.test),
+                                     t.effect.n_params)
                 p = g.p_value if g.testable else 0.0
                 if p >= alpha and (worst is None or p > worst[0]):
                     worst = (p, i, g)
@@ -634,17 +731,18 @@ class Fitter:
             for alt in self._alternatives.get(term.key, ()):
                 if any(u.key == alt.key for u in current.terms):
                     continue
-                other = self.fit_new(self._drop(current, i), alt)
+                # only the parameters of ``other`` and the two refits' test errors are read:
+                # no full-grid prediction is kept beside ``current``'s
+                other = _light(self.fit_new(_light(self._drop(current, i)), alt, full=False))
                 if self.at_limit(other):
                     continue
-                mine = self.fit(current.terms, current.nl, rows=self.fit_rows)
-                theirs = self.fit(other.terms, other.nl, rows=self.fit_rows)
-                g = likelihood_ratio(self._errors(mine, self.test),
-                                     self._errors(theirs, self.test), alt.effect.n_params)
+                mine = self._errors(self.fit(current.terms, current.nl, rows=self.fit_rows,
+                                             full=False), self.test)
+                theirs = self._errors(self.fit(other.terms, other.nl, rows=self.fit_rows,
+                                               full=False), self.test)
+                g = likelihood_ratio(mine, theirs, alt.effect.n_params)
                 if not (g.testable and g.p_value < ALPHA and g.share_removed > 0):
-                    back = likelihood_ratio(self._errors(theirs, self.test),
-                                            self._errors(mine, self.test),
-                                            term.effect.n_params)
+                    back = likelihood_ratio(theirs, mine, term.effect.n_params)
                     if back.testable and back.p_value < ALPHA and back.share_removed > 0:
                         self._settled(sel, term, alt, back)
                     continue
@@ -666,8 +764,8 @@ class Fitter:
                 order = list(range(len(other.terms) - 1))
                 order.insert(i, len(other.terms) - 1)
                 return self._separate_aliases(
-                    self.fit([other.terms[j] for j in order], [other.nl[j] for j in order]),
-                    sel, tried)
+                    self.fit([other.terms[j] for j in order], [other.nl[j] for j in order],
+                             full=False), sel, tried)
         return current
 
     @staticmethod
@@ -684,7 +782,8 @@ class Fitter:
 
     def _drop(self, current: FitResult, i: int) -> FitResult:
         keep = [j for j in range(len(current.terms)) if j != i]
-        return self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep])
+        return self.fit([current.terms[j] for j in keep], [current.nl[j] for j in keep],
+                        full=current.rows is None)
 
     def _forget(self, sel: Selection, t: Term) -> None:
         sel.warnings = [w for w in sel.warnings if w["effects"][0] != t.effect.name
@@ -694,15 +793,17 @@ class Fitter:
         """Backward pass: drop terms whose held-out gain, given the others, is not significant."""
         while len(current.terms) > 1:
             alpha = ALPHA / len(current.terms)
-            trials = []
+            worst = None     # max over (p, -share) as max() picks it: the first of equals
             for i in range(len(current.terms)):
                 f = self._drop(current, i)
                 g = likelihood_ratio(self._errors(f, self.valid),
                                      self._errors(current, self.valid),
                                      current.terms[i].effect.n_params)
                 p = g.p_value if g.testable else 1.0
-                trials.append((p, -g.share_removed, i, f, g))
-            p, _, i, f, g = max(trials, key=lambda x: (x[0], x[1]))
+                if worst is None or (p, -g.share_removed) > worst[:2]:
+                    worst = (p, -g.share_removed, i, f, g)
+                del f
+            p, _, i, f, g = worst
             if p < alpha or self.at_limit(f):
                 break
             t = current.terms[i]
@@ -717,10 +818,10 @@ class Fitter:
 
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
         """Whether a term is a constant offset (its only regressor constant over rows)."""
-        cols, off = self.basis(term, np.asarray(nl, float))
-        if cols.shape[2] != 1 or term.effect.nl or np.any(off):
+        cols, _, off_any = self.basis(term, np.asarray(nl, float))
+        if cols.shape[2] != 1 or term.effect.nl or off_any:
             return False
-        x = cols[self.fit_rows, :, 0]
+        x = cols[self.at(self.fit_rows), :, 0]
         return bool(np.any(x) and np.allclose(x, x[0], rtol=1e-6, atol=0.0))
 
     def _rates(self) -> dict[str, np.ndarray]:
@@ -744,9 +845,9 @@ class Fitter:
                 i += 1
                 continue
             sc = self.w / current.scale      # channel units → unit residual std
-            x = self.basis(t, current.nl[i])[0][self.fit_rows, :, 0] * sc
+            x = self.basis(t, current.nl[i])[0][self.at(self.fit_rows), :, 0] * sc
             others = current.total(self.n, self.c) - current.pred[i]
-            e = (self.r[self.fit_rows] - others[self.fit_rows]) * sc
+            e = (self.r[self.fit_rows] - self.on(current, others, self.fit_rows)) * sc
             s = np.sqrt(current.tau)
             flip = None
             for name, v in rates.items():
@@ -819,17 +920,18 @@ class Fitter:
         sel.identifiability = {"combinations": found}
         return current
 
-    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], fit: FitResult, trials, gains,
-                 gain: float) -> None:
+    def _aliases(self, sel: Selection, hyp: tuple[Term, ...], mine: np.ndarray | None,
+                 trials, gains, gain: float) -> None:
         """Warn where another candidate explains the same held-out residual as ``hyp``.
 
-        ``gain``/``gains`` are shares of the (per-channel scaled) held-out loss removed.
+        ``mine`` and each trial's second element are the new term's contribution on the
+        validation rows (flattened; ``None`` for a family). ``gain``/``gains`` are shares
+        of the (per-channel scaled) held-out loss removed.
         """
         if len(hyp) != 1:
             return
         (term,) = hyp
-        mine = fit.pred[-1][self.valid].ravel()
-        for (h, f), g in zip(trials, gains, strict=True):
+        for (h, other), g in zip(trials, gains, strict=True):
             if len(h) != 1 or h[0].key == term.key or not np.isfinite(g) or \
                     g < ALIAS_GAIN * gain:
                 continue
@@ -839,7 +941,6 @@ class Fitter:
                                   term.effect.name in t.effect.generalizes)
             if nested:
                 continue
-            other = f.pred[-1][self.valid].ravel()
             if np.std(mine) == 0 or np.std(other) == 0:
                 continue
             corr = float(np.corrcoef(mine, other)[0, 1])
@@ -855,6 +956,11 @@ class Fitter:
                              f"left before it; contributions correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
+
+
+def _light(fit: FitResult) -> FitResult:
+    """``fit`` without its full-grid predictions and Jacobian (its parameters and scores)."""
+    return dataclasses.replace(fit, pred=[], jac=None)
 
 
 def _params(fit: FitResult, i: int) -> dict[str, float]:

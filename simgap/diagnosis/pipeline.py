@@ -420,6 +420,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             regs += [dict(reg, of="unexplained", text=f"unexplained remainder: {reg['text']}")
                      for reg in locate.regions(s.channel, system.channel_units[i],
                                                remainder[:, i], variables)]
+    del remainder
     comp = compare(system, res, fitted, fitter.t_split, horizon)
     if isinstance(system, BicycleSystem):
         vx_mean = float(np.mean(res.signals["vx"]))

@@ -103,6 +103,9 @@ STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
+#: Rows per block where a per-row product with M(q) is evaluated in blocks (M(q) is
+#: (N, n, n); blocks keep the transient at a fixed size, the values are the same per row).
+MASS_BLOCK_ROWS = 1 << 15
 #: Effects of the vehicle's vocabulary that another effect needs (its coupling declaration).
 _NEEDED = frozenset(n for e in BICYCLE_EFFECTS for n in e.needs)
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
@@ -314,8 +317,20 @@ class MechanicalSystem:
         if speed == 0.0:
             return np.zeros_like(dq)
         eps = 1e-5 / speed
-        rate = (self.mass(q + eps * dq) - self.mass(q - eps * dq)) / (2.0 * eps)
-        return np.einsum("nij,nj->ni", rate, dq)
+        out = np.empty(dq.shape)
+        for a in range(0, len(q), MASS_BLOCK_ROWS):
+            qb, dqb = q[a:a + MASS_BLOCK_ROWS], dq[a:a + MASS_BLOCK_ROWS]
+            rate = (self.mass(qb + eps * dqb) - self.mass(qb - eps * dqb)) / (2.0 * eps)
+            out[a:a + MASS_BLOCK_ROWS] = np.einsum("nij,nj->ni", rate, dqb)
+        return out
+
+    def _mass_times(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """M(q) v per row (N·m for v = q̇ in rad/s: the momentum), in row blocks."""
+        out = np.empty(v.shape)
+        for a in range(0, len(q), MASS_BLOCK_ROWS):
+            out[a:a + MASS_BLOCK_ROWS] = np.einsum(
+                "nij,nj->ni", self.mass(q[a:a + MASS_BLOCK_ROWS]), v[a:a + MASS_BLOCK_ROWS])
+        return out
 
     def _residual(self, sig: Mapping[str, np.ndarray], kernel: KernelFilter | None
                   ) -> np.ndarray:
@@ -327,7 +342,7 @@ class MechanicalSystem:
         q, dq = sig["q"], sig["dq"]
         if kernel is None:
             return sig["u"] - self.inverse_dynamics(q, dq, sig["ddq"])
-        momentum = np.einsum("nij,nj->ni", self.mass(q), dq)
+        momentum = self._mass_times(q, dq)
         rest = sig["u_held"] - self.inverse_dynamics(q, dq, np.zeros_like(q)) + \
             self._mass_rate_dq(q, dq)
         return kernel(rest) - kernel(momentum, 1)
@@ -377,7 +392,8 @@ class MechanicalSystem:
         c = self.columns
         grid = segmented_grid(rec[c.t], {k: rec[k] for k in c.required if k != c.t})
         t, dt, bounds = grid.t, grid.dt, grid.bounds
-        raw = {k: np.array(v, dtype=np.float64) for k, v in grid.columns.items()}  # owned
+        # the grid's own columns (new arrays, never the recording's): no second copy
+        raw = {k: np.asarray(v, dtype=np.float64) for k, v in grid.columns.items()}
         warn = grid_warnings(grid)
         models = error_models(raw, grid.segment)
         from_q = not c.dq
@@ -623,7 +639,8 @@ class BicycleSystem:
         c = self.columns
         grid = segmented_grid(rec[c.t], {k: rec[k] for k in c.required if k != c.t})
         t, dt, bounds = grid.t, grid.dt, grid.bounds
-        raw = {k: np.array(v, dtype=np.float64) for k, v in grid.columns.items()}  # owned
+        # the grid's own columns (new arrays, never the recording's): no second copy
+        raw = {k: np.asarray(v, dtype=np.float64) for k, v in grid.columns.items()}
         if np.any(raw[c.vx] <= 1.0):
             i = int(np.argmax(raw[c.vx] <= 1.0))
             raise ValueError(f"{rec.name}: column {c.vx!r} row {i + 1}: vx = {raw[c.vx][i]!r} "

@@ -265,3 +265,59 @@ def test_aliased_pair_is_decided_by_the_part_that_separates_them(seed):
     effects = diagnose(rec, "manipulator2dof").data["effects"]
     assert [(e["effect"], e["channel"]) for e in effects] == [("coulomb_friction", "joint2")]
     assert effects[0]["parameters"]["Fc"] == pytest.approx(0.3, rel=0.03)
+
+
+def test_fits_on_the_usable_rows_equal_the_full_grid_fit_there():
+    """Issue 17 (memory): the selection's fits keep contributions on the usable rows only and
+    the basis cache holds those rows; every number is the full-grid fit's, bit for bit, and
+    the selection's final fit is on the full grid again."""
+    rng = np.random.default_rng(3)
+    x = np.sin(0.7 * np.arange(N) * DT)
+    z = np.cos(1.3 * np.arange(N) * DT)
+    r = (0.5 * x + 0.2 * z + rng.normal(0, 0.1, N))[:, None]
+    fitter = _fitter(Fake(), r, np.array([0.1]))
+    terms = [Term(_effect("a", x), 0, "c"), Term(_effect("b", z), 0, "c")]
+    full, light = fitter.fit(terms), fitter.fit(terms, full=False)
+    usable = np.sort(np.concatenate([fitter.fit_rows, fitter.test]))
+    assert full.rows is None and np.array_equal(light.rows, usable)
+    assert len(usable) < N / 2                             # thinned: far fewer rows
+    for p_full, p_light in zip(full.pred, light.pred, strict=True):
+        assert p_full.shape == (N, 1) and np.array_equal(p_full[usable], p_light)
+    assert (full.sse_train, full.sse_valid, full.sse_test) == \
+        (light.sse_train, light.sse_valid, light.sse_test)
+    assert np.array_equal(fitter._errors(full, fitter.test), fitter._errors(light, fitter.test))
+    assert np.array_equal(np.concatenate(full.lin), np.concatenate(light.lin))
+    expanded = fitter.full(light)
+    assert expanded.rows is None
+    assert all(np.array_equal(a, b) for a, b in zip(full.pred, expanded.pred, strict=True))
+    cols, off, _ = fitter.basis(terms[0], np.zeros(0))
+    assert cols.shape == (len(usable), 1, 1) and off.shape == (len(usable), 1)
+    with pytest.raises(ValueError, match="usable rows"):
+        fitter.at(np.array([usable[0] + 1]))
+    sel = fitter.select(terms)
+    assert sel.fit.rows is None and all(p.shape == (N, 1) for p in sel.fit.pred)
+
+
+@pytest.mark.parametrize("model, effect", [
+    ("manipulator2dof", ("coulomb_friction", "joint2", {"Fc": 0.2})),
+    ("bicycle", ("tire_saturation", None, {"mu": 0.7}))])
+def test_row_blocks_change_no_number(monkeypatch, model, effect):
+    """Issue 17: M(q)·v in prepare and the test part's model derivative are evaluated in
+    blocks of rows; tiny blocks (many of them) give the same report, bit for bit."""
+    import json
+
+    from simgap.diagnosis import compare, systems
+    from simgap.diagnosis.generate import InjectedEffect, generate
+    from simgap.diagnosis.pipeline import diagnose
+
+    name, channel, params = effect
+    rec = generate(model, [InjectedEffect(effect=name, channel=channel, params=params)],
+                   seed=1, duration=6.0 if model == "manipulator2dof" else 12.0)
+
+    def report() -> str:
+        return json.dumps(diagnose(rec, model).data, sort_keys=True, default=str)
+
+    whole = report()
+    monkeypatch.setattr(systems, "MASS_BLOCK_ROWS", 97)
+    monkeypatch.setattr(compare, "BLOCK_ROWS", 89)
+    assert report() == whole
