@@ -23,7 +23,6 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from simgap.envs._common import state_option
 from simgap.envs.bicycle import BicycleTireEnv
 from simgap.envs.scenarios import YawRateReference, yaw_rate_entries
 from simgap.envs.vector_base import NativeVectorEnv
@@ -112,6 +111,10 @@ class BicycleVectorEnv(NativeVectorEnv):
         **kwargs: the sub-env's keyword arguments (one plant for all rows).
     """
 
+    state_size = 2
+    state_doc = "vy m/s, r rad/s"
+    action_doc = "steering angles (rad)"
+
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
                  **kwargs: Any) -> None:
         single = self._make_single(BicycleTireEnv, YawRateReference, kwargs)
@@ -142,20 +145,6 @@ class BicycleVectorEnv(NativeVectorEnv):
                             "applied_action": u})
         return obs, rew, term, trunc, info
 
-    def reset(self, *, seed: int | list[int | None] | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every row (straight running, or ``options["state"]`` = (vy, r) for all)."""
-        self._check_reset_options(options)
-        self._seed(seed)  # the rows' np_random streams, as the sync env's (the env draws none)
-        state = state_option(options, 2, "vy m/s, r rad/s")
-        if state is None:
-            obs, _, _, _, info = self._run(self._zeros, np.ones(self.num_envs, dtype=bool))
-        else:  # the sub-env's own reset at that state, copied to every row
-            obs, info = self._run_state(state)
-        self._autoreset[:] = False
-        self._was_reset = True
-        return obs, info
-
     def _run_state(self, state: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
         """Every row at the sub-env's reset state for ``options["state"]``, with its info."""
         env = self.single_env
@@ -166,12 +155,6 @@ class BicycleVectorEnv(NativeVectorEnv):
         info = {key: np.tile(np.asarray(v), (nn, 1)) if np.ndim(v) else
                 np.full(nn, v, dtype=np.float64) for key, v in i1.items()}
         return np.tile(o, (nn, 1)), self._masks(info)
-
-    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                          dict[str, Any]]:
-        """Step every row (rows that finished last step are reset instead)."""
-        a = self._actions(actions, "steering angles (rad)")
-        return self._run(a, self._autoreset)
 
 
 guard_cache(globals(), ("simgap.envs.scenarios", "simgap.models.bicycle",

@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from simgap.envs._common import state_option
 from simgap.envs.manipulator import ManipulatorFrictionEnv
 from simgap.envs.scenarios import QuinticReference, quintic_sample_entries
 from simgap.envs.vector_base import NativeVectorEnv
@@ -117,6 +116,10 @@ class ManipulatorVectorEnv(NativeVectorEnv):
         **kwargs: the sub-env's keyword arguments (one plant for all rows).
     """
 
+    state_size = 4
+    state_doc = "q1, q2, dq1, dq2"
+    action_doc = "joint torques (N·m)"
+
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
                  **kwargs: Any) -> None:
         single = self._make_single(ManipulatorFrictionEnv, QuinticReference, kwargs)
@@ -134,7 +137,8 @@ class ManipulatorVectorEnv(NativeVectorEnv):
                 np.empty(nn, dtype=bool), np.empty(nn), np.empty((nn, 6)), np.empty((nn, 4)),
                 np.empty((nn, 2)), np.empty((nn, 2)))
 
-    def _draw_noise(self, rows: np.ndarray) -> None:
+    def _fresh_rows(self, rows: np.ndarray) -> None:
+        """The initial-state noise of ``rows`` (as the sub-env draws it at reset), rad."""
         w = self.single_env.init_noise
         for i in np.flatnonzero(rows):
             self._noise[i] = self._rng(i).uniform(-w, w, size=2)
@@ -151,22 +155,9 @@ class ManipulatorVectorEnv(NativeVectorEnv):
                             "physical_residual_true": tau, "applied_action": u})
         return obs, rew, term, trunc, info
 
-    def reset(self, *, seed: int | list[int | None] | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every row (``seed``: int s → rows s, s + 1, …; ``options["state"]``: all)."""
-        self._check_reset_options(options)
-        self._seed(seed)
+    def _on_reset(self) -> None:
+        """The sub-env's reference parameters (it may have been given a new one)."""
         self._ref_p = np.array(self.single_env.reference.params)
-        state = state_option(options, 4, "q1, q2, dq1, dq2")
-        rows = np.ones(self.num_envs, dtype=bool)
-        if state is None:
-            self._draw_noise(rows)
-            obs, _, _, _, info = self._run(self._zeros, rows)
-        else:  # as the sub-env: start there, no noise drawn
-            obs, info = self._run_state(state)
-        self._autoreset[:] = False
-        self._was_reset = True
-        return obs, info
 
     def _run_state(self, state: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset info at a given state for every row (``options["state"]``)."""
@@ -182,15 +173,6 @@ class ManipulatorVectorEnv(NativeVectorEnv):
         info = self._masks({"t": np.zeros(nn), "reference": ref, "residual_true": g,
                             "physical_residual_true": tau, "applied_action": np.zeros((nn, 2))})
         return self._s.copy(), info
-
-    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                          dict[str, Any]]:
-        """Step every row (rows that finished last step are reset instead)."""
-        a = self._actions(actions, "joint torques (N·m)")
-        rows = self._autoreset
-        if rows.any():
-            self._draw_noise(rows)
-        return self._run(a, rows)
 
 
 guard_cache(globals(), ("simgap.envs.scenarios", "simgap.models.friction",

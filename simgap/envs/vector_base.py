@@ -27,12 +27,17 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from simgap.envs._common import check_count, check_reset
+from simgap.envs._common import check_count, check_reset, state_option
 from simgap.errors import EnvError
 
 
 class NativeVectorEnv(gym.vector.VectorEnv):
-    """Base of the native vector envs (subclasses set ``_kernel_step`` and the info keys).
+    """Base of the native vector envs: ``reset`` and ``step`` over the subclass's kernel.
+
+    A subclass provides ``_run(actions, rows)`` (one kernel call; ``rows`` are reset
+    instead of stepped), ``_run_state(state)`` (every row at ``options["state"]``), a
+    ``_zeros`` action array, the class attributes below, and optionally the hooks
+    :meth:`_on_reset` and :meth:`_fresh_rows`.
 
     Args:
         single: one sub-env built with the user's keyword arguments (template: spaces,
@@ -42,6 +47,11 @@ class NativeVectorEnv(gym.vector.VectorEnv):
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    #: length of ``options["state"]`` and what its entries are (for the error line)
+    state_size: int
+    state_doc: str
+    #: what an action row is, with units (for the error lines)
+    action_doc: str
 
     def __init__(self, single: gym.Env, num_envs: int,
                  max_episode_steps: int | None) -> None:
@@ -132,6 +142,39 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         for i, s in enumerate(seeds):
             if s is not None:
                 self._rngs[i], _ = seeding.np_random(s)
+
+    # ------------------------------------------------------------------ reset and step
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every row (``seed``: int s → rows s, s + 1, …; ``options["state"]``: all)."""
+        self._check_reset_options(options)
+        self._seed(seed)  # the rows' np_random streams, as the sync env's
+        self._on_reset()
+        state = state_option(options, self.state_size, self.state_doc)
+        if state is None:
+            rows = np.ones(self.num_envs, dtype=bool)
+            self._fresh_rows(rows)
+            obs, _, _, _, info = self._run(self._zeros, rows)
+        else:  # as the sub-env: every row starts there
+            obs, info = self._run_state(state)
+        self._autoreset[:] = False
+        self._was_reset = True
+        return obs, info
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                          dict[str, Any]]:
+        """Step every row (rows that finished last step are reset instead)."""
+        a = self._actions(actions, self.action_doc)
+        rows = self._autoreset
+        if rows.any():
+            self._fresh_rows(rows)
+        return self._run(a, rows)
+
+    def _on_reset(self) -> None:
+        """Called by :meth:`reset` after seeding (e.g. to read the sub-env's reference)."""
+
+    def _fresh_rows(self, rows: np.ndarray) -> None:
+        """Draw what ``rows`` need from their ``np_random`` before they start an episode."""
 
     # ------------------------------------------------------------------ actions
     def _actions(self, actions: Any, what: str) -> np.ndarray:
