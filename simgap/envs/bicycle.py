@@ -15,6 +15,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from simgap.envs._common import (
     check_count,
@@ -42,6 +43,21 @@ from simgap.models.effects import Plant
 from simgap.models.tires import MagicFormulaTire
 
 TIRE_MODELS = ("magic_formula", "linear")
+
+
+@njit(cache=True, inline="always")
+def tracking_outcome(vy, r, r_ref, vy_max):  # pragma: no cover - compiled
+    """Reward −(r − r_ref)² ((rad/s)²) and termination after a step to (vy, r).
+
+    The episode ends where |vy| > vy_max (m/s) or the yaw rate is not finite. The one
+    formula of the single env (through ``py_func``, Python floats) and the native vector
+    env's kernel (compiled): the same IEEE operations, the same bits.
+    """
+    err = r - r_ref
+    return -(err * err), not (abs(vy) <= vy_max and math.isfinite(r))
+
+
+_outcome = tracking_outcome.py_func  # the env's step: no dispatch per call
 
 
 def _resolve_tire(tire: str | MagicFormulaTire | None) -> MagicFormulaTire | None:
@@ -201,9 +217,8 @@ class BicycleTireEnv(PlantEnv):
         self._k += 1
         t = self._k * self.dt
         r_ref = float(self.reference(t))
-        err = s_new[1] - r_ref
-        reward = -float(err * err)
-        terminated = not (abs(s_new[0]) <= self._vy_max and math.isfinite(s_new[1]))
+        vy, r = s_new[:2].tolist()
+        reward, terminated = _outcome(vy, r, r_ref, self._vy_max)
         return s_new[:2].copy(), reward, terminated, False, self._info(g, t, r_ref, u)
 
     def _make_renderer(self) -> Any:

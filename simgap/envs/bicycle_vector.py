@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from simgap.envs.bicycle import BicycleTireEnv
+from simgap.envs.bicycle import BicycleTireEnv, tracking_outcome
 from simgap.envs.scenarios import YawRateReference, yaw_rate_entries
 from simgap.envs.vector_base import NativeVectorEnv
 from simgap.models.bicycle import axle_force_entries, plant_rk4, residual_entries
@@ -87,9 +87,7 @@ def vector_step(s, k, a, reset_rows, low, high, theta, theta_nom, k_inv, dt, n_s
             k[i] += 1
             t = k[i] * dt
             r_ref = yaw_rate_entries(t, amp, period)
-            err = n1 - r_ref
-            rew[i] = -(err * err)
-            term[i] = not (abs(n0) <= vy_max and np.isfinite(n1))
+            rew[i], term[i] = tracking_outcome(n0, n1, r_ref, vy_max)
             trunc[i] = max_steps >= 0 and k[i] >= max_steps
             _write_info(i, t, r_ref, g1, g2, k_inv, u1, u2, t_out, rref_out, g_out, delta_out,
                         phys_out, u_out)
@@ -157,6 +155,5 @@ class BicycleVectorEnv(NativeVectorEnv):
         return np.tile(o, (nn, 1)), self._masks(info)
 
 
-guard_cache(globals(), ("simgap.envs.scenarios", "simgap.models.bicycle",
-                        "simgap.models.integrators", "simgap.models.slots",
-                        "simgap.models.tires"))
+guard_cache(globals(), ("simgap.envs.bicycle", "simgap.envs.scenarios", "simgap.models.bicycle",
+                        "simgap.models.integrators", "simgap.models.slots", "simgap.models.tires"))

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from simgap.envs.manipulator import ManipulatorFrictionEnv
+from simgap.envs.manipulator import ManipulatorFrictionEnv, tracking_outcome
 from simgap.envs.scenarios import QuinticReference, quintic_sample_entries
 from simgap.envs.vector_base import NativeVectorEnv
 from simgap.models.manipulator import residual_entries, transition_entries
@@ -91,11 +91,7 @@ def vector_step(s, k, a, reset_rows, noise, low, high, theta, la_nom, dt, n_sub,
             k[i] += 1
             t = k[i] * dt
             r = quintic_sample_entries(t, ref_p[0], ref_p[1], ref_p[2], ref_p[3], ref_p[4], two)
-            e1 = n1 - r[0]
-            e2 = n2 - r[1]
-            rew[i] = -(e1 * e1 + e2 * e2)
-            term[i] = not (abs(n3) <= max_speed and abs(n4) <= max_speed
-                           and np.isfinite(n1) and np.isfinite(n2))
+            rew[i], term[i] = tracking_outcome(n1, n2, n3, n4, r[0], r[1], max_speed)
             trunc[i] = max_steps >= 0 and k[i] >= max_steps
             _write_info(i, t, r, g3, g4, tau1, tau2, u1, u2, t_out, ref_out, g_out, tau_out,
                         u_out)
@@ -175,6 +171,6 @@ class ManipulatorVectorEnv(NativeVectorEnv):
         return self._s.copy(), info
 
 
-guard_cache(globals(), ("simgap.envs.scenarios", "simgap.models.friction",
-                        "simgap.models.integrators", "simgap.models.manipulator",
-                        "simgap.models.slots"))
+guard_cache(globals(), ("simgap.envs.manipulator", "simgap.envs.scenarios",
+                        "simgap.models.friction", "simgap.models.integrators",
+                        "simgap.models.manipulator", "simgap.models.slots"))
