@@ -69,6 +69,7 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         self._high = np.ascontiguousarray(single._high)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._all_true = np.ones(self.num_envs, dtype=bool)  # template of the info masks
         self._was_reset = False
 
     @staticmethod
@@ -188,6 +189,8 @@ class NativeVectorEnv(gym.vector.VectorEnv):
         if a.shape != shape:
             raise EnvError(f"actions must have shape {shape} ({what}), got shape {a.shape}")
         a = np.ascontiguousarray(a, dtype=np.float64)
+        if np.isfinite(a).all():  # the usual case: one pass, no per-row masks
+            return a
         bad = ~np.isfinite(a).all(axis=1) & ~self._autoreset  # reset rows ignore theirs
         if bad.any():
             rows = np.flatnonzero(bad)
@@ -195,13 +198,13 @@ class NativeVectorEnv(gym.vector.VectorEnv):
                            f"step was not taken")
         return a
 
-    @staticmethod
-    def _masks(info: dict[str, Any], rows: np.ndarray | None = None) -> dict[str, Any]:
-        """Add gymnasium's ``_key`` masks (all True, or ``rows``) to the info arrays."""
+    def _masks(self, info: dict[str, Any]) -> dict[str, Any]:
+        """Add gymnasium's ``_key`` masks (all True; one array per key) to the info arrays."""
+        true = self._all_true
         out: dict[str, Any] = {}
         for key, value in info.items():
             out[key] = value
-            out[f"_{key}"] = np.ones(value.shape[0], dtype=bool) if rows is None else rows
+            out[f"_{key}"] = true.copy()  # a copy is cheaper than np.ones (Python-level)
         return out
 
     def close_extras(self, **kwargs: Any) -> None:

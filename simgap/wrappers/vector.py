@@ -104,6 +104,8 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         self._periodic = periodic_indices(m0)
         self._x: np.ndarray | None = None
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._all_true = np.ones(self.num_envs, dtype=bool)  # templates of the info masks
+        self._all_false = np.zeros(self.num_envs, dtype=bool)
 
     # ------------------------------------------------------------------ control
     def freeze(self) -> None:
@@ -155,27 +157,29 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
         space = self.env.single_action_space
         applied = infos.get("applied_action")
         if applied is not None and np.asarray(infos.get("_applied_action", True)).all():
-            acts = np.asarray(applied)
+            acts = applied
             space = None  # already what acted
         else:
             acts = actions
         u = self._inputs(space, acts)
         x = self._x
         obs_now = self._states(obs)
-        x_next = obs_now.copy()
-        learn = np.ones(nn, dtype=bool)
-        restart = np.zeros(nn, dtype=bool)
+        x_next = obs_now  # read only below unless a SAME_STEP row or an angle changes it
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            learn = ~self._autoreset
-            restart = self._autoreset.copy()
-        elif self.autoreset_mode == AutoresetMode.SAME_STEP:
-            done = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
-            if done.any():
-                finals = infos["final_obs"]
-                for i in np.flatnonzero(done):
-                    x_next[i] = np.asarray(self.nominal_models[i].state(finals[i]),
-                                           dtype=np.float64).reshape(-1)
-                restart = done
+            restart = self._autoreset if self._autoreset.any() else None
+            learn = self._all_true if restart is None else ~restart
+        else:
+            learn = self._all_true
+            restart = None
+            if self.autoreset_mode == AutoresetMode.SAME_STEP:
+                done = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
+                if done.any():
+                    finals = infos["final_obs"]
+                    x_next = obs_now.copy()
+                    for i in np.flatnonzero(done):
+                        x_next[i] = np.asarray(self.nominal_models[i].state(finals[i]),
+                                               dtype=np.float64).reshape(-1)
+                    restart = done
         per = self._periodic
         if per.size:
             x, x_next = self._unwrap(per, x, x_next)
@@ -185,33 +189,32 @@ class VectorIdentifierWrapper(gym.vector.VectorWrapper):
             f = np.stack([np.asarray(mdl.f(x[i], u[i]), dtype=np.float64).reshape(-1)
                           for i, mdl in enumerate(self.nominal_models)])
         ident = self.identifier
-        g = ident.step(x, u, f, x_next, learn=learn)
-        valid = learn
+        g = ident.step(x, u, f, x_next, learn=None if restart is None else learn)
         x_hat, x_tilde = ident.x_hat, ident.x_tilde
         if per.size:
             ident.wrap_observer(per)
             x_hat[:, per] = wrap_angle(x_hat[:, per])
             x_tilde[:, per] = wrap_angle(x_tilde[:, per])
         infos["residual_estimate"] = g
-        infos["_residual_estimate"] = valid.copy()
+        infos["_residual_estimate"] = learn.copy()
         infos["state_estimate"] = x_hat
-        infos["_state_estimate"] = valid.copy()
+        infos["_state_estimate"] = learn.copy()
         infos["estimation_error"] = x_tilde
-        infos["_estimation_error"] = valid.copy()
-        infos["identifier_frozen"] = np.full(nn, ident.frozen)
-        infos["_identifier_frozen"] = np.ones(nn, dtype=bool)
-        if self._physical[0] is not None and self._batched:
-            phys = np.asarray(self._physical[0](x, g), dtype=np.float64).reshape(nn, -1)
-        elif self._physical[0] is not None:
-            phys = np.stack([np.asarray(pr(x[i], g[i]), dtype=np.float64).reshape(-1)
-                             for i, pr in enumerate(self._physical)])
+        infos["_estimation_error"] = learn.copy()
+        infos["identifier_frozen"] = (self._all_true if ident.frozen else self._all_false).copy()
+        infos["_identifier_frozen"] = self._all_true.copy()
         if self._physical[0] is not None:
+            if self._batched:
+                phys = np.asarray(self._physical[0](x, g), dtype=np.float64).reshape(nn, -1)
+            else:
+                phys = np.stack([np.asarray(pr(x[i], g[i]), dtype=np.float64).reshape(-1)
+                                 for i, pr in enumerate(self._physical)])
             infos["physical_residual_estimate"] = phys
-            infos["_physical_residual_estimate"] = valid.copy()
+            infos["_physical_residual_estimate"] = learn.copy()
             for key in self._extra_keys:
                 infos[key] = phys.copy()
-                infos[f"_{key}"] = valid.copy()
-        if restart.any():
+                infos[f"_{key}"] = learn.copy()
+        if restart is not None:  # the rows that were reset (NEXT_STEP) or finished (SAME_STEP)
             ident.reset_observer(restart, obs_now)
         self._x = obs_now
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
