@@ -108,8 +108,9 @@ class Prepared(ResidualResult):
     """One recording as a residual form prepared it: immutable data, no form state.
 
     Besides the :class:`~simgap.diagnosis.residual.ResidualResult` fields (time grid,
-    residual, noise floor, filtered ``signals``, ``raw`` columns, smoother, column noise),
-    all arrays read-only:
+    residual, noise floor, filtered ``signals``, smoother, column noise), all arrays
+    read-only. ``raw`` is empty: nothing reads the raw grid columns after ``prepare``, so
+    they are not kept (memory per sample, issue 17).
 
     Attributes:
         inputs: the logged inputs as held over each sample, scaled (N, n_inputs), e.g. N·m
@@ -119,7 +120,10 @@ class Prepared(ResidualResult):
         coulomb_sigma: tanh smoothing velocity of Coulomb/Stribeck terms per joint (rad/s
             or m/s), or ``None`` (bicycle).
         fit_mask: rows (N, C) whose residual is determinate enough to fit and score.
-        state: the filtered recorded state per row (N, n_states), e.g. (q, dq) or (vy, r).
+        state_columns: where the state's columns live in ``signals``, as (signal name,
+            column or ``None`` for a 1-D signal), e.g. q and dq of the arm or (vy, r).
+        state: the filtered recorded state per row (N, n_states), e.g. (q, dq) or (vy, r):
+            built from ``signals`` when read (not stored twice), read-only.
         state_derivative: the measured derivative of the compared states per row.
         derivatives: the signals that are state derivatives, as (signal name, column or
             ``None`` for a 1-D signal); what :meth:`zero_derivatives` and
@@ -137,8 +141,9 @@ class Prepared(ResidualResult):
     held_input: np.ndarray | None = None
     coulomb_sigma: np.ndarray | None = None
     fit_mask: np.ndarray
-    state: np.ndarray
+    state_columns: tuple[tuple[str, int | None], ...]
     state_derivative: np.ndarray
+    raw: Mapping[str, np.ndarray] = field(default_factory=dict)
     derivatives: tuple[tuple[str, int | None], ...]
     plan: Any = None
     #: Memo of pure functions of this data (lagged steering, tip-point regressors): values
@@ -147,7 +152,7 @@ class Prepared(ResidualResult):
 
     def __post_init__(self) -> None:
         for name in ("t", "residual", "noise_rms", "inputs", "held_input", "coulomb_sigma",
-                     "fit_mask", "state", "state_derivative", "segment", "valid",
+                     "fit_mask", "state_derivative", "segment", "valid",
                      "effective_samples"):
             value = getattr(self, name)
             if value is not None:
@@ -180,9 +185,16 @@ class Prepared(ResidualResult):
             out[key] = np.zeros_like(sig[key])
         return out
 
-    def state_at(self, idx: np.ndarray) -> np.ndarray:
-        """The filtered recorded state at rows ``idx``."""
-        return self.state[idx]
+    @property
+    def state(self) -> np.ndarray:
+        """The filtered recorded state (N, n_states), a new read-only array."""
+        return _read_only(self.state_at(slice(None)))
+
+    def state_at(self, idx: np.ndarray | slice) -> np.ndarray:
+        """The filtered recorded state at rows ``idx`` (a new array, columns in order)."""
+        sig = self.signals
+        return np.stack([sig[k][idx] if j is None else sig[k][idx, j]
+                         for k, j in self.state_columns], axis=-1)
 
     def derivative_at(self, idx: np.ndarray) -> np.ndarray:
         """The measured state derivative at rows ``idx``."""

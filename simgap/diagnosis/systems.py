@@ -104,8 +104,9 @@ STICK_WIDTHS = 3.0
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
 #: Rows per block where a per-row product with M(q) is evaluated in blocks (M(q) is
-#: (N, n, n); blocks keep the transient at a fixed size, the values are the same per row).
-MASS_BLOCK_ROWS = 1 << 15
+#: (N, n, n); blocks keep the transient at a fixed size, ≈ 0.5 MB, the values are the same
+#: per row).
+MASS_BLOCK_ROWS = 1 << 12
 #: Effects of the vehicle's vocabulary that another effect needs (its coupling declaration).
 _NEEDED = frozenset(n for e in BICYCLE_EFFECTS for n in e.needs)
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
@@ -296,19 +297,28 @@ class MechanicalSystem:
         return out
 
     # -- signals and residual ----------------------------------------------------------
-    def _signals(self, raw: Mapping[str, np.ndarray], plan: _Plan) -> dict[str, np.ndarray]:
-        """States by the inner filter, acceleration, inputs (see the module docstring)."""
+    def _signals(self, raw: Mapping[str, np.ndarray], plan: _Plan, *,
+                 residual_only: bool = False) -> dict[str, np.ndarray]:
+        """States by the inner filter, acceleration, inputs (see the module docstring).
+
+        ``residual_only``: with a kernel filter, only what :meth:`_residual` reads (q, dq,
+        u_held; the same values), not ddq and the filtered u (noise-floor passes).
+        """
         c, sm = self.columns, plan.inner
         qr = np.stack([raw[k] for k in c.q], axis=1)
         q = sm(qr)
         dqr = None if plan.velocity_from_q else np.stack([raw[k] for k in c.dq], axis=1)
         dq = sm(qr, 1) if dqr is None else sm(dqr)
+        del qr
+        scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
+        held = _held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold) * scale
+        if residual_only and plan.kernel is not None:
+            return {"q": q, "dq": dq, "u_held": held}
         if plan.kernel is not None:
             ddq = plan.kernel(dq, 1)
         else:
-            ddq = sm(qr, 2) if dqr is None else sm(dqr, 1)
-        scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
-        held = _held(np.stack([raw[k] for k in c.u], axis=1), c.input_hold) * scale
+            ddq = sm(np.stack([raw[k] for k in c.q], axis=1), 2) if dqr is None \
+                else sm(dqr, 1)
         return {"q": q, "dq": dq, "ddq": ddq, "u": sm(held), "u_held": held}
 
     def _mass_rate_dq(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
@@ -342,14 +352,19 @@ class MechanicalSystem:
         q, dq = sig["q"], sig["dq"]
         if kernel is None:
             return sig["u"] - self.inverse_dynamics(q, dq, sig["ddq"])
-        momentum = self._mass_times(q, dq)
-        rest = sig["u_held"] - self.inverse_dynamics(q, dq, np.zeros_like(q)) + \
-            self._mass_rate_dq(q, dq)
-        return kernel(rest) - kernel(momentum, 1)
+        # the same operations as K*[u − bias + Ṁq̇] − K'*[M q̇], ordered so that each
+        # (N, n) temporary is freed as soon as it is used (the peak memory of prepare)
+        d_momentum = kernel(self._mass_times(q, dq), 1)
+        rest = sig["u_held"] - self.inverse_dynamics(q, dq, np.zeros_like(q))
+        rest += self._mass_rate_dq(q, dq)
+        out = kernel(rest)
+        del rest
+        out -= d_momentum
+        return out
 
     def residual_of(self, raw: Mapping[str, np.ndarray], plan: _Plan) -> np.ndarray:
         """The residual (N, n) of raw grid columns through a prepared recording's ``plan``."""
-        return self._residual(self._signals(raw, plan), plan.kernel)
+        return self._residual(self._signals(raw, plan, residual_only=True), plan.kernel)
 
     def _constant_mass(self, q: np.ndarray) -> bool:
         """Whether M(q) is the same at (up to 200) recorded positions (relative 1e-9)."""
@@ -442,7 +457,7 @@ class MechanicalSystem:
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
         valid = smoother.valid(len(t))
-        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw,
+        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig,
                         smoother=smoother, resampled=grid.resampled, column_noise=noise,
                         segment=grid.segment, column_models=models,
                         warnings=tuple(dict.fromkeys(warn)),
@@ -450,7 +465,8 @@ class MechanicalSystem:
                         valid=valid, plan=plan, inputs=u_hold,
                         held_input=_held(u_hold, c.input_hold),  # what an input delay shifts
                         coulomb_sigma=sigma, fit_mask=self._fit_mask(sig, sigma, valid),
-                        state=np.concatenate([sig["q"], sig["dq"]], axis=1),
+                        state_columns=tuple((k, j) for k in ("q", "dq")
+                                            for j in range(sig["q"].shape[1])),
                         state_derivative=sig["ddq"],
                         derivatives=tuple(("ddq", j) for j in range(self.n_channels)))
 
@@ -662,13 +678,13 @@ class BicycleSystem:
         valid = sm.valid(len(t))
         # rows whose filter window lies inside their segment (all rows without gaps)
         ok = valid if len(bounds) > 1 else np.ones(len(t), dtype=bool)
-        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig, raw=raw, smoother=sm,
+        return Prepared(t=t, residual=res, noise_rms=floor, signals=sig, smoother=sm,
                         resampled=grid.resampled, column_noise=noise, segment=grid.segment,
                         column_models=models, warnings=tuple(dict.fromkeys(warn)),
                         effective_samples=effective_counts(res, valid, grid.segment),
                         valid=valid, inputs=np.stack([raw[k] for k in c.u], axis=1) * scale,
                         fit_mask=np.repeat(ok[:, None], 2, axis=1),
-                        state=np.stack([sig["vy"], sig["r"]], axis=1),
+                        state_columns=(("vy", None), ("r", None)),
                         state_derivative=np.stack([sig["dvy"], sig["dr"]], axis=1),
                         derivatives=(("dvy", None), ("dr", None)))
 

@@ -72,9 +72,9 @@ def test_prepare_returns_immutable_data_and_keeps_nothing_on_the_form() -> None:
     first, second = (form.prepare(r) for r in recs)
     assert vars(form).keys() == before.keys()          # nothing stored on the form
     assert isinstance(first, Prepared) and not np.array_equal(first.residual, second.residual)
+    assert not first.raw  # the raw grid columns are not kept after prepare (issue 17)
     for arr in (first.t, first.residual, first.noise_rms, first.signals["dq"],
-                first.raw["q1"], first.inputs, first.fit_mask, first.state,
-                first.coulomb_sigma):
+                first.inputs, first.fit_mask, first.state, first.coulomb_sigma):
         with pytest.raises(ValueError):
             arr[0] = 1.0
     with pytest.raises(TypeError):
@@ -90,6 +90,30 @@ def test_prepare_returns_immutable_data_and_keeps_nothing_on_the_form() -> None:
     idx = np.arange(10, 20)
     assert form.derivative(second, idx, []).shape == (10, 2)
     assert form.step(second, second.state_at(idx), idx, [], second.dt).shape == (10, 4)
+
+
+def test_prepared_state_is_built_from_the_signals_and_the_noise_pass_residual_is_the_same(
+) -> None:
+    """``state`` is not stored twice but equals (q, dq) bit for bit; the noise-floor passes'
+    shorter signal set (``residual_only``) gives the very residual ``prepare`` computed."""
+    rec = generate("manipulator2dof", [InjectedEffect(effect="coulomb_friction",
+                                                      channel="joint2", params={"Fc": 0.2})],
+                   seed=1, duration=4.0)
+    form = MechanicalSystem(ManipulatorNominal())
+    prep = form.prepare(rec)
+    full = np.concatenate([prep.signals["q"], prep.signals["dq"]], axis=1)
+    assert np.array_equal(prep.state, full)
+    idx = np.array([3, 0, 500, 7])
+    assert np.array_equal(prep.state_at(idx), full[idx])
+    assert prep.state_at(idx).flags.c_contiguous
+    bike = BicycleSystem()
+    bprep = bike.prepare(generate("bicycle", [], seed=0, duration=6.0))
+    assert np.array_equal(bprep.state_at(idx),
+                          np.stack([bprep.signals["vy"], bprep.signals["r"]], axis=1)[idx])
+    raw = {k: np.asarray(rec[k], dtype=np.float64) for k in form.columns.required
+           if k != form.columns.t}
+    assert prep.plan.kernel is not None
+    assert np.array_equal(form.residual_of(raw, prep.plan), prep.residual)
 
 
 def test_fitter_called_the_old_way_says_what_to_pass() -> None:
