@@ -14,11 +14,14 @@ Rates are given per wall second and per CPU second of this process (``*_cpu``: t
 rate when the machine is shared); ratios (native/sync, wrapped/bare) come from the same
 repeat and are the robust numbers on a loaded machine. The load average is recorded before
 and after. The sweep numbers are copied from ``results/bench_sweeps.json`` (their own run
-and load); the diagnosis memory per sample is measured by the diagnosis scaling benchmark
-(issue 13) and marked as measured elsewhere unless its JSON is present.
+and load); the diagnosis memory per sample is measured in this run by the diagnosis
+scaling benchmark's child (``diagnosis_scaling.py``: a generated 500 Hz arm log per length,
+diagnosed in a fresh process; peak RSS above the RSS before, per sample), at the lengths of
+``--diag-durations`` (empty: skipped).
 
     .venv/bin/python benchmarks/bench_vector.py [--ns 1,16,256,1024] [--repeats 5] \
-        [--budget 0.4] [--fresh 5] [--out benchmarks/results/bench_vector.json]
+        [--budget 0.4] [--fresh 5] [--diag-durations 60,3600] \
+        [--out benchmarks/results/bench_vector.json]
 """
 
 from __future__ import annotations
@@ -189,9 +192,36 @@ def _elsewhere() -> dict:
                          "identical_to_serial": s.get("identical_to_serial")}
     else:
         res["sweeps"] = "measured elsewhere (benchmarks/bench_sweeps.py); no JSON found"
-    res["diagnosis_rss_per_sample"] = (
-        "measured elsewhere (issue 13 scaling benchmark, not in this branch)")
     return res
+
+
+def _diagnosis(durations: list[float]) -> dict:
+    """Diagnosis memory and time per sample at each length (``diagnosis_scaling``'s child)."""
+    import tempfile
+
+    import diagnosis_scaling as ds
+
+    from simgap.diagnosis.generate import generate_manipulator
+    from simgap.recordings import write_recording
+
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for dur in durations:
+            rec = generate_manipulator(ds._effects(), duration=dur, rate=ds.RATE_HZ, seed=0)
+            path = Path(tmp) / f"arm_{int(dur)}s.parquet"
+            write_recording(path, rec.columns)
+            del rec
+            load = os.getloadavg()[0]
+            r = ds._run_child(path, False, False)
+            rows[f"{dur:g}"] = {k: r[k] for k in ("samples", "diagnose_s", "us_per_sample",
+                                                  "rss_before_mb", "peak_rss_diagnose_mb",
+                                                  "bytes_per_sample", "effects_found")}
+            rows[f"{dur:g}"]["load_before"] = load
+            print(f"diagnosis {dur:g} s: {r['bytes_per_sample']} B/sample, "
+                  f"{r['diagnose_s']} s", file=sys.stderr)
+    return {"source": "benchmarks/diagnosis_scaling.py child, this run (500 Hz arm log, "
+                      "fresh process, peak RSS above the RSS before / samples)",
+            "target_bytes_per_sample": ds.TARGET_BYTES_PER_SAMPLE, "rows": rows}
 
 
 def _verdict(res: dict) -> dict:
@@ -217,6 +247,12 @@ def _verdict(res: dict) -> dict:
         wb = max(rows[n]["native_wrapped_cpu"] for n in rows if int(n) >= 256)
         wt = TARGETS["wrapped_over_bare"] * t["native_at_256"]
         v[name]["wrapped_at_256_up_cpu"] = {"measured": wb, "target": wt, "met": wb >= wt}
+    diag = res.get("diagnosis_rss_per_sample")
+    if isinstance(diag, dict) and diag["rows"]:
+        worst = max(r["bytes_per_sample"] for r in diag["rows"].values())
+        v["diagnosis_bytes_per_sample"] = {"measured": worst,
+                                           "target": diag["target_bytes_per_sample"],
+                                           "met": worst <= diag["target_bytes_per_sample"]}
     s = res["single"]["manipulator"]["bare_steps_per_cpu_s"]
     v["single_arm_bare_cpu"] = {"measured": s, "target": TARGETS["single_arm_steps_per_s"],
                                 "met": s >= TARGETS["single_arm_steps_per_s"]}
@@ -236,6 +272,8 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=0.4, help="seconds per timed sample")
     ap.add_argument("--sync-max-n", type=int, default=1024)
     ap.add_argument("--fresh", type=int, default=5, help="fresh processes (0: skip)")
+    ap.add_argument("--diag-durations", default="60,3600",
+                    help="diagnosis lengths in s for the memory per sample ('' skips)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     ns = [int(n) for n in args.ns.split(",")]
@@ -246,6 +284,9 @@ def main() -> None:
     res["fresh"] = _fresh(args.fresh) if args.fresh > 0 else {}
     res["load_after"] = os.getloadavg()
     res.update(_elsewhere())
+    durations = [float(d) for d in args.diag_durations.split(",") if d.strip()]
+    res["diagnosis_rss_per_sample"] = _diagnosis(durations) if durations else \
+        "skipped (--diag-durations '')"
     res["verdict"] = _verdict(res)
     text = json.dumps(res, indent=1)
     if args.out is not None:

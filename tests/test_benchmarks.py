@@ -85,8 +85,10 @@ def test_bench_auto_quick(tmp_path):
 def test_bench_vector_quick(tmp_path):
     out = tmp_path / "bench_vector.json"
     res = _run("bench_vector.py", "--ns", "1,4", "--repeats", "1", "--budget", "0.01",
-               "--fresh", "1", "--out", str(out))
+               "--fresh", "1", "--diag-durations", "6", "--out", str(out))
     assert json.loads(out.read_text()) == res
+    diag = res["diagnosis_rss_per_sample"]["rows"]["6"]
+    assert diag["samples"] > 2000 and diag["bytes_per_sample"] == diag["bytes_per_sample"]
     for system in ("manipulator", "bicycle"):
         row = res["vector"][system]["4"]
         for key in ("native_bare", "native_wrapped", "sync_bare", "sync_wrapped"):

@@ -121,9 +121,10 @@ class Prepared(ResidualResult):
             or m/s), or ``None`` (bicycle).
         fit_mask: rows (N, C) whose residual is determinate enough to fit and score.
         state_columns: where the state's columns live in ``signals``, as (signal name,
-            column or ``None`` for a 1-D signal), e.g. q and dq of the arm or (vy, r).
-        state: the filtered recorded state per row (N, n_states), e.g. (q, dq) or (vy, r):
-            built from ``signals`` when read (not stored twice), read-only.
+            column or ``None`` for a 1-D signal), e.g. q and dq of the arm or (vy, r): the
+            forms give these, so the state is not stored twice (:meth:`state_at`).
+        state: the filtered recorded state per row (N, n_states), if given instead of
+            ``state_columns``; else ``None``.
         state_derivative: the measured derivative of the compared states per row.
         derivatives: the signals that are state derivatives, as (signal name, column or
             ``None`` for a 1-D signal); what :meth:`zero_derivatives` and
@@ -141,7 +142,8 @@ class Prepared(ResidualResult):
     held_input: np.ndarray | None = None
     coulomb_sigma: np.ndarray | None = None
     fit_mask: np.ndarray
-    state_columns: tuple[tuple[str, int | None], ...]
+    state_columns: tuple[tuple[str, int | None], ...] = ()
+    state: np.ndarray | None = None
     state_derivative: np.ndarray
     raw: Mapping[str, np.ndarray] = field(default_factory=dict)
     derivatives: tuple[tuple[str, int | None], ...]
@@ -152,7 +154,7 @@ class Prepared(ResidualResult):
 
     def __post_init__(self) -> None:
         for name in ("t", "residual", "noise_rms", "inputs", "held_input", "coulomb_sigma",
-                     "fit_mask", "state_derivative", "segment", "valid",
+                     "fit_mask", "state", "state_derivative", "segment", "valid",
                      "effective_samples"):
             value = getattr(self, name)
             if value is not None:
@@ -185,14 +187,13 @@ class Prepared(ResidualResult):
             out[key] = np.zeros_like(sig[key])
         return out
 
-    @property
-    def state(self) -> np.ndarray:
-        """The filtered recorded state (N, n_states), a new read-only array."""
-        return _read_only(self.state_at(slice(None)))
-
     def state_at(self, idx: np.ndarray | slice) -> np.ndarray:
         """The filtered recorded state at rows ``idx`` (a new array, columns in order)."""
+        if self.state is not None:
+            return self.state[idx]
         sig = self.signals
+        if not self.state_columns:  # a stateless form: (rows, 0)
+            return np.zeros((len(self.t), 0))[idx]
         return np.stack([sig[k][idx] if j is None else sig[k][idx, j]
                          for k, j in self.state_columns], axis=-1)
 

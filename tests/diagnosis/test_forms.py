@@ -72,9 +72,9 @@ def test_prepare_returns_immutable_data_and_keeps_nothing_on_the_form() -> None:
     first, second = (form.prepare(r) for r in recs)
     assert vars(form).keys() == before.keys()          # nothing stored on the form
     assert isinstance(first, Prepared) and not np.array_equal(first.residual, second.residual)
-    assert not first.raw  # the raw grid columns are not kept after prepare (issue 17)
+    assert not first.raw and first.state is None  # not stored twice (issue 17)
     for arr in (first.t, first.residual, first.noise_rms, first.signals["dq"],
-                first.inputs, first.fit_mask, first.state, first.coulomb_sigma):
+                first.inputs, first.fit_mask, first.coulomb_sigma):
         with pytest.raises(ValueError):
             arr[0] = 1.0
     with pytest.raises(TypeError):
@@ -94,7 +94,7 @@ def test_prepare_returns_immutable_data_and_keeps_nothing_on_the_form() -> None:
 
 def test_prepared_state_is_built_from_the_signals_and_the_noise_pass_residual_is_the_same(
 ) -> None:
-    """``state`` is not stored twice but equals (q, dq) bit for bit; the noise-floor passes'
+    """The state is not stored twice but equals (q, dq) bit for bit; the noise-floor passes'
     shorter signal set (``residual_only``) gives the very residual ``prepare`` computed."""
     rec = generate("manipulator2dof", [InjectedEffect(effect="coulomb_friction",
                                                       channel="joint2", params={"Fc": 0.2})],
@@ -102,7 +102,7 @@ def test_prepared_state_is_built_from_the_signals_and_the_noise_pass_residual_is
     form = MechanicalSystem(ManipulatorNominal())
     prep = form.prepare(rec)
     full = np.concatenate([prep.signals["q"], prep.signals["dq"]], axis=1)
-    assert np.array_equal(prep.state, full)
+    assert np.array_equal(prep.state_at(slice(None)), full)
     idx = np.array([3, 0, 500, 7])
     assert np.array_equal(prep.state_at(idx), full[idx])
     assert prep.state_at(idx).flags.c_contiguous
