@@ -252,6 +252,9 @@ class Fitter:
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
         self._alternatives: dict[tuple, list[Term]] = {}
+        #: named terms the outer test part could not detect at their fitted size
+        #: (:meth:`_confirm`), by key: the report says "cannot test" for them
+        self.untestable: dict[tuple, validation.Power] = {}
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
@@ -529,6 +532,21 @@ class Fitter:
         reg = np.concatenate([cols, off[:, :, None]], axis=2) if off_any else cols
         return validation.information_share(reg, self.at(held_out), self.at(train))
 
+    def testable_held_out(self, term: Term, nl: np.ndarray) -> bool:
+        """Whether the outer test part can test a named term (information and power)."""
+        if term.key in self.untestable:
+            return False
+        return self.information(term, nl, self.test, self.fit_rows) >= \
+            validation.NO_INFORMATION
+
+    def untestable_note(self, term: Term) -> str:
+        """Why the test part cannot test a named term it holds some signal of ("" if none)."""
+        power = self.untestable.get(term.key)
+        if power is None:
+            return ""
+        return (f" (were it real at its fitted size, it would give a statistic of "
+                f"{power.expected:.3g} there, below the {power.critical:.3g} the test needs)")
+
     def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult,
                  errors: np.ndarray | None = None) -> dict[str, Any]:
         """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation).
@@ -631,6 +649,12 @@ class Fitter:
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
+            for i in ok:
+                if i != pick:
+                    evals[i]["reason"] = (
+                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
+                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
+                        "round (a larger gain, or as large with fewer parameters)")
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
@@ -674,7 +698,11 @@ class Fitter:
         never fitted) is a second, independent held-out sample. A term whose removal the
         likelihood-ratio test there does not reject (at :data:`ALPHA` shared by the terms)
         is not named: its validation gain did not replicate. A term the test part holds no
-        information about is kept (and reported as not testable there).
+        information about is kept (and reported as not testable there), and so is a term
+        the test part could not detect even if it were real at its fitted size
+        (:func:`.validation.detectable`: the expected statistic below the critical value,
+        e.g. a damping correction on the small amplitudes at the end of a free decay);
+        those are listed in :attr:`untestable`.
         """
         terms, nls = list(current.terms), list(current.nl)
         while True:
@@ -683,9 +711,17 @@ class Fitter:
                 return final
             alpha = ALPHA / len(terms)
             worst = None
+            left = self._errors(final, self.test)
+            self.untestable = {}
             for i, t in enumerate(terms):
                 if self.information(t, final.nl[i], self.test, self.fit_rows) < \
                         validation.NO_INFORMATION:
+                    continue
+                power = validation.detectable(
+                    left, self.on(final, final.pred[i], self.test) * self.w,
+                    t.effect.n_params, alpha)
+                if not power.detectable:   # too little information there to test it
+                    self.untestable[t.key] = power
                     continue
                 keep = [j for j in range(len(terms)) if j != i]
                 without = self._errors(self.fit([terms[j] for j in keep],
