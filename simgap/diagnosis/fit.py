@@ -67,7 +67,7 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
 from simgap.diagnosis import identifiability, validation
-from simgap.diagnosis.effects import Effect
+from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect
 from simgap.diagnosis.errormodel import autocorrelation_time
 from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.significance import likelihood_ratio
@@ -594,6 +594,15 @@ class Fitter:
         """
         hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
         by_key = {t.key: t for t in remaining}
+        # an effect declared for every channel at once (one road μ, ``all_channels``) is
+        # also tried on all its channels together: per channel, a vehicle-scope term that
+        # gains on both axles with one parameter (a mass ratio mimicking a saturation on
+        # steady circles) would otherwise beat it axle by axle
+        for name in dict.fromkeys(t.effect.name for t in remaining):
+            spec = VOCABULARY_SPECS.get(name)
+            same = [t for t in remaining if t.effect.name == name and t.index is not None]
+            if spec is not None and spec.all_channels and len(same) > 1:
+                hyps.append(tuple(same))
         for fam in FAMILIES:
             for idx in sorted({t.index for t in remaining if t.effect.name == fam[0]},
                               key=lambda i: -1 if i is None else i):
@@ -649,6 +658,27 @@ class Fitter:
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
+            blocked = self._structural(fit, hyp, candidates)
+            if blocked:   # not identifiable on this data at all: out, and the round again
+                for t in hyp:
+                    key = tuple(u.key for u in hyp)
+                    entry = tried.pop(key) if key in tried else evals[pick]
+                    tried[(t.key,)] = dict(entry, effect=t.effect.name, channel=t.channel,
+                                           _hyp=(t,), params=_params(fit, fit.terms.index(t)))
+                    reason = blocked.get(t.key)
+                    if reason is None:
+                        reason = (f"not identifiable with "
+                                  f"{'+'.join(u.label for u in hyp)}: "
+                                  + "; ".join(blocked.values()))
+                    else:
+                        sel.warnings.append({"effects": [t.effect.name],
+                                             "channels": [t.channel], "text": reason})
+                    tried[(t.key,)].update(decision="not identifiable", reason=reason)
+                sel.history[-1].update(term="+".join(t.label for t in hyp), accepted=False,
+                                       not_identifiable=True)
+                remaining = [t for t in remaining if t.key not in
+                             {u.key for u in hyp}]
+                continue
             for i in ok:
                 if i != pick:
                     evals[i]["reason"] = (
@@ -661,7 +691,8 @@ class Fitter:
             if len(hyp) > 1:   # a family: each member is named (and pruned) on its own
                 del tried[tuple(t.key for t in hyp)]
                 for t in hyp:
-                    tried[(t.key,)] = dict(e, effect=t.effect.name, _hyp=(t,), reason=(
+                    tried[(t.key,)] = dict(e, effect=t.effect.name, channel=t.channel,
+                                           _hyp=(t,), reason=(
                         f"named with {'+'.join(m.effect.name for m in hyp)} fitted together: "
                         f"{e['reason']}"))
             sel.history[-1].update(term="+".join(t.label for t in hyp),
@@ -852,6 +883,72 @@ class Fitter:
             current = f
         return current
 
+    def _directions(self) -> dict[str, float]:
+        """Share of the fit rows on which each direction variable is positive.
+
+        Direction variables are the form's ``direction_variables`` (the bicycle: vy and
+        the yaw rate r, not the forward speed), else every rate (unit ``…/s``) of its
+        ``locate_variables``.
+        """
+        names = getattr(self.sys, "direction_variables", None)
+        out = {}
+        for name, (v, unit) in self.sys.locate_variables(self.prepared).items():
+            if (names is None and str(unit).endswith("/s")) or (names and name in names):
+                v = np.asarray(v)[self.fit_rows]
+                out[name] = float(np.mean(v > 0))
+        return out
+
+    def _structural(self, fit: FitResult, hyp: tuple[Term, ...],
+                    candidates: Sequence[Term]) -> dict[tuple, str]:
+        """Terms of a picked hypothesis the data cannot identify at all, with the reason.
+
+        * A constant effect on data that move one way only (every direction variable of
+          one sign on all but :data:`FLIP_SIDE_SHARE` of the fit rows): a constant and an
+          effect whose sign follows the direction are the same function there.
+        * An effect with ``symmetric_with`` partners (a vehicle's mass or yaw-inertia
+          ratio: mass, yaw inertia and all tire forces scaled together leave the motion
+          unchanged): refitted with the partners (both axles' cornering-stiffness ratios)
+          freed beside it, the joint check (:func:`.identifiability.analyse`) finds a
+          direction carrying it undetermined: steady manoeuvres fix only the ratio of
+          inertia to tire forces. The combination is reported instead.
+        """
+        out: dict[tuple, str] = {}
+        shares = self._directions()
+        one_way = bool(shares) and all(min(p, 1.0 - p) < FLIP_SIDE_SHARE
+                                       for p in shares.values())
+        for i, t in enumerate(fit.terms):
+            if t not in hyp:
+                continue
+            if one_way and self._constant(t, fit.nl[i]):
+                sides = ", ".join(f"{n} {'>' if p >= 0.5 else '<'} 0 on "
+                                  f"{100 * max(p, 1 - p):.0f} %" for n, p in shares.items())
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable from one "
+                              f"direction: the data move one way only ({sides} of the rows), "
+                              "where a constant and an effect whose sign follows the "
+                              "direction are the same; record both directions to tell them "
+                              "apart")
+        for t in hyp:
+            partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with
+                        and c.key not in {u.key for u in fit.terms}]
+            if not partners or t.key in out:
+                continue
+            both = self.fit_new(fit, partners, full=False)
+            joint = self._joint(both)
+            ana = joint.get("_analysis")
+            mine = {f"{t.label}:{p}" for p in (*t.effect.lin, *t.effect.nl)}
+            combos = [] if ana is None else [c for c in ana.unidentifiable
+                                             if mine & set(c.weights)]
+            if combos:
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
+                              + " and ".join(f"{p.effect.label} at {p.channel}"
+                                             for p in partners)
+                              + f" freed beside it, {combos[0].describe()} (scaling "
+                              "inertia and tire forces together leaves the motion unchanged; "
+                              "this data fix only their ratio, "
+                              f"{t.effect.label} {_ratio_text(fit, t)} relative to the "
+                              "nominal tire laws)")
+        return out
+
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
         """Whether a term is a constant offset (its only regressor constant over rows)."""
         cols, _, off_any = self.basis(term, np.asarray(nl, float))
@@ -992,6 +1089,12 @@ class Fitter:
                              f"left before it; contributions correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
+
+
+def _ratio_text(fit: FitResult, term: Term) -> str:
+    """A term's fitted parameters as ``name = value`` text (raw fit coordinates)."""
+    vals = _params(fit, fit.terms.index(term))
+    return ", ".join(f"{k} = {v:.3g}" for k, v in vals.items())
 
 
 def _light(fit: FitResult) -> FitResult:
