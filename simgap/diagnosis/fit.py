@@ -84,6 +84,9 @@ TRAIN_FRACTION = 0.7
 FLIP_Z = 3.0
 #: An operating rate counts as taking both signs when each holds this share of the rows.
 FLIP_SIDE_SHARE = 0.1
+#: An effect with symmetry partners (``symmetric_with``) is identifiable when, refitted with
+#: them freed, its parameters stay this many standard errors from the nominal (0).
+SYMMETRY_Z = 3.0
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
@@ -255,6 +258,9 @@ class Fitter:
         #: named terms the outer test part could not detect at their fitted size
         #: (:meth:`_confirm`), by key: the report says "cannot test" for them
         self.untestable: dict[tuple, validation.Power] = {}
+        #: terms kept in the fit as an identifiable combination but not named (the reason
+        #: says which combination), by key (:meth:`_structural`)
+        self.combinations: dict[tuple, str] = {}
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
@@ -659,25 +665,31 @@ class Fitter:
             fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
             blocked = self._structural(fit, hyp, candidates)
-            if blocked:   # not identifiable on this data at all: out, and the round again
+            if blocked:
+                # not identifiable as such on this data: fitted (the identifiable combination
+                # it carries is part of the model, so that no other term stands in for it)
+                # but not named; the round goes on with it in the fit
+                key = tuple(u.key for u in hyp)
+                entry = tried.pop(key) if key in tried else evals[pick]
                 for t in hyp:
-                    key = tuple(u.key for u in hyp)
-                    entry = tried.pop(key) if key in tried else evals[pick]
                     tried[(t.key,)] = dict(entry, effect=t.effect.name, channel=t.channel,
                                            _hyp=(t,), params=_params(fit, fit.terms.index(t)))
                     reason = blocked.get(t.key)
                     if reason is None:
-                        reason = (f"not identifiable with "
-                                  f"{'+'.join(u.label for u in hyp)}: "
-                                  + "; ".join(blocked.values()))
-                    else:
-                        sel.warnings.append({"effects": [t.effect.name],
-                                             "channels": [t.channel], "text": reason})
-                    tried[(t.key,)].update(decision="not identifiable", reason=reason)
-                sel.history[-1].update(term="+".join(t.label for t in hyp), accepted=False,
-                                       not_identifiable=True)
-                remaining = [t for t in remaining if t.key not in
-                             {u.key for u in hyp}]
+                        continue
+                    self.combinations[t.key] = reason
+                    sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                         "text": reason})
+                    tried[(t.key,)].update(decision="not identifiable",
+                                           reason=reason + " (fitted as that combination, "
+                                                           "not named)")
+                sel.history[-1].update(term="+".join(t.label for t in hyp),
+                                       gain=float(gains[pick]), p_value=_p_of(evals[pick]),
+                                       accepted=True, not_identifiable=sorted(
+                                           f"{k[0]}@{k[1]}" for k in blocked))
+                current = fit
+                done = {t.key for t in hyp}
+                remaining = [t for t in remaining if t.key not in done]
                 continue
             for i in ok:
                 if i != pick:
@@ -938,15 +950,27 @@ class Fitter:
             mine = {f"{t.label}:{p}" for p in (*t.effect.lin, *t.effect.nl)}
             combos = [] if ana is None else [c for c in ana.unidentifiable
                                              if mine & set(c.weights)]
-            if combos:
+            # its own parameters with the partners freed: on a limit, or within SYMMETRY_Z
+            # standard errors of the nominal (the partners took it over)
+            k = both.terms.index(t)
+            sl = both.slices()[k]
+            vals = np.concatenate([both.lin[k], both.nl[k]])
+            se = np.sqrt(np.clip(np.diag(both.cov)[sl], 0.0, None) * both.tau)
+            lost = t.label in self.at_limit(both) or bool(
+                np.all(np.abs(vals) < SYMMETRY_Z * se))
+            if combos or lost:
+                what = combos[0].describe() if combos else (
+                    f"its fit moves to {_ratio_text(both, t)} ± "
+                    f"{', '.join(f'{x:.2g}' for x in se)}"
+                    + (" (a plausibility limit)" if t.label in self.at_limit(both) else ""))
                 out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
                               + " and ".join(f"{p.effect.label} at {p.channel}"
                                              for p in partners)
-                              + f" freed beside it, {combos[0].describe()} (scaling "
-                              "inertia and tire forces together leaves the motion unchanged; "
-                              "this data fix only their ratio, "
+                              + f" freed beside it, {what}. Inertia and tire forces scaled "
+                              "together leave the motion unchanged, and this data fix only "
+                              "their ratio: the identifiable combination is "
                               f"{t.effect.label} {_ratio_text(fit, t)} relative to the "
-                              "nominal tire laws)")
+                              "nominal tire laws")
         return out
 
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
@@ -1091,8 +1115,16 @@ class Fitter:
                              "Excite the system differently to separate them.")})
 
 
+def _p_of(entry: dict[str, Any]) -> float:
+    """The p-value of a ``tried`` entry as a float."""
+    return float(entry["p_value"])
+
+
 def _ratio_text(fit: FitResult, term: Term) -> str:
-    """A term's fitted parameters as ``name = value`` text (raw fit coordinates)."""
+    """A term's fitted parameters as ``name = value`` text (fit coordinates).
+
+    A ratio r reads ``ratio_minus_1 = r − 1``.
+    """
     vals = _params(fit, fit.terms.index(term))
     return ", ".join(f"{k} = {v:.3g}" for k, v in vals.items())
 

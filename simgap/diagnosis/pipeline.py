@@ -267,6 +267,8 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
     slices = fit.slices()
     entries, preds, fitted = [], [], []
     for i, term in enumerate(fit.terms):
+        if term.key in fitter.combinations:   # fitted as a combination, not named
+            continue
         sl = slices[i]
         # what the effects this one needs on its channel fitted (Stribeck's Fs includes Fc)
         ctx = needs_context(term.effect, term.index, {
@@ -496,6 +498,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             "signal_notes": list(res.warnings),
         },
     }
+    if fitter.combinations:   # fitted as identifiable combinations, not named (fit.py)
+        data["verdict"] += (" Not identifiable on this data (fitted as a combination, not "
+                            "named): " + "; ".join(fitter.combinations.values()))
     data["explained"] = explained_section(  # additive shares (simgap.diagnosis.shares)
         r_te[:, sig_idx], [(p[fitter.test] * fitter.w)[:, sig_idx] for p in preds], entries,
         [system.channels[i] for i in sig_idx], min(1.0, noise_share))
