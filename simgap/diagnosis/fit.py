@@ -940,11 +940,11 @@ class Fitter:
                               "direction are the same; record both directions to tell them "
                               "apart")
         for t in hyp:
-            partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with
-                        and c.key not in {u.key for u in fit.terms}]
+            partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with]
             if not partners or t.key in out:
                 continue
-            both = self.fit_new(fit, partners, full=False)
+            missing = [c for c in partners if c.key not in {u.key for u in fit.terms}]
+            both = self.fit_new(fit, missing, full=False) if missing else fit
             joint = self._joint(both)
             ana = joint.get("_analysis")
             mine = {f"{t.label}:{p}" for p in (*t.effect.lin, *t.effect.nl)}
@@ -966,7 +966,7 @@ class Fitter:
                 out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
                               + " and ".join(f"{p.effect.label} at {p.channel}"
                                              for p in partners)
-                              + f" freed beside it, {what}. Inertia and tire forces scaled "
+                              + f" fitted beside it, {what}. Inertia and tire forces scaled "
                               "together leave the motion unchanged, and this data fix only "
                               "their ratio: the identifiable combination is "
                               f"{t.effect.label} {_ratio_text(fit, t)} relative to the "
