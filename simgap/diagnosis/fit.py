@@ -743,9 +743,10 @@ class Fitter:
         is not named: its validation gain did not replicate. A term the test part holds no
         information about is kept (and reported as not testable there), and so is a term
         the test part could not detect even if it were real at its fitted size
-        (:func:`.validation.detectable`: the expected statistic below the critical value,
-        e.g. a damping correction on the small amplitudes at the end of a free decay);
-        those are listed in :attr:`untestable`.
+        (:func:`.validation.detectable`: the expected statistic below the critical value)
+        *because* the part holds much less information about it per row than the fit part
+        (:data:`.validation.LOW_INFORMATION`), e.g. a damping correction on the small
+        amplitudes at the end of a free decay; those are listed in :attr:`untestable`.
         """
         terms, nls = list(current.terms), list(current.nl)
         while True:
@@ -757,13 +758,17 @@ class Fitter:
             left = self._errors(final, self.test)
             self.untestable = {}
             for i, t in enumerate(terms):
-                if self.information(t, final.nl[i], self.test, self.fit_rows) < \
-                        validation.NO_INFORMATION:
+                share = self.information(t, final.nl[i], self.test, self.fit_rows)
+                if share < validation.NO_INFORMATION:
                     continue
                 power = validation.detectable(
                     left, self.on(final, final.pred[i], self.test) * self.w,
                     t.effect.n_params, alpha)
-                if not power.detectable:   # too little information there to test it
+                if not power.detectable and share < validation.LOW_INFORMATION:
+                    # the part holds too little of what fitted it to test it (the small
+                    # amplitudes at the end of a decay); a term the part holds as much
+                    # information about as the fit part, but could not detect, is simply
+                    # too small: it is tested below like any other
                     self.untestable[t.key] = power
                     continue
                 keep = [j for j in range(len(terms)) if j != i]

@@ -28,9 +28,12 @@ amplitudes, where a damping correction that is plain early on sits below the noi
 the part *could* confirm a term is a power question, answered by :func:`detectable`: the
 test statistic the part would give if the term were real at its fitted size (its held-out
 contribution added back to the errors left with it) against the critical value of the
-test. Below it, a real effect of that size would be missed at least half the time: the
-part holds too little information about the term to test it, and the report says "cannot
-test" rather than "not confirmed" or "0 % explained".
+test. Below it, a real effect of that size would be missed at least half the time; when
+the part also holds much less of the term's regressor energy per row than the fit part
+(:data:`LOW_INFORMATION`), it holds too little information about the term to test it, and
+the report says "cannot test" rather than "not confirmed" or "0 % explained". A term that
+is merely small (as undetectable on a part as informative as the fit part) is tested as
+usual: its validation gain must replicate.
 """
 
 from __future__ import annotations
@@ -48,6 +51,10 @@ BLOCKS = 20
 MIN_BLOCK_ROWS = 5
 #: Held-out regressor energy per row below this share of the training one: no information.
 NO_INFORMATION = 1e-6
+#: Held-out regressor energy per row below this share of the fit part's: a part that could
+#: not detect a term there is "cannot test" (it holds too little of what fitted the term),
+#: not evidence against it (:func:`detectable`).
+LOW_INFORMATION = 0.25
 #: A time step longer than this many median steps is a gap in the log.
 GAP_STEPS = 5.0
 
