@@ -21,8 +21,8 @@ Two presets change what is recorded rather than spoil a recording (``scenario`` 
 :mod:`simgap.diagnosis.scenarios`): ``free_decay_damping`` (a pendulum released with no
 input, the nominal damping 15 % too high, with and without a real Coulomb friction) and
 ``one_direction_circles`` (the vehicle on steady circles, one turn direction per run, two
-runs joined by a gap). Their ``apply`` is the identity; a benchmark builds their recordings
-with the scenario.
+runs joined by a gap). Their ``apply`` only notes the scenario in ``meta``; a benchmark
+builds their recordings with the scenario.
 
 ``ARTEFACTS`` names one preset of each (with the position/velocity column pairs of the
 recording given by the caller) so that a benchmark can iterate every effect × artefact.
@@ -181,7 +181,7 @@ class Artefact:
     """One named artefact preset: ``apply(recording, pairs, rng) -> recording``.
 
     ``scenario`` names a :mod:`simgap.diagnosis.scenarios` scenario (``"decay"``,
-    ``"circles"``) that makes the recording itself (``apply`` is then the identity).
+    ``"circles"``) that makes the recording itself (``apply`` then only notes it).
 
     ``pairs`` maps each velocity column to its position column (empty for systems without
     positions, e.g. the bicycle's vy, r); artefacts that need positions then do nothing
@@ -222,11 +222,11 @@ ARTEFACTS: dict[str, Artefact] = {a.name: a for a in (
     Artefact(name="free_decay_damping", scenario="decay",
              description="pendulum free decays (u = 0), nominal damping 15 % too high, "
                          "with and without a real Coulomb friction",
-             apply=lambda r, p, g: r),
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(decay)")),
     Artefact(name="one_direction_circles", scenario="circles",
              description="steady circles, one turn direction per run (left run, gap, "
                          "right run)",
-             apply=lambda r, p, g: r),
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(circles)")),
 )}
 
 
