@@ -44,6 +44,17 @@ pair is reported as a collinearity warning; when the outer test part separates t
 instead (:meth:`Fitter._separate_aliases`): the selection's pick between two hypotheses that
 explain the same validation residual is noise, not evidence.
 
+Two structural checks run on each round's pick before it is accepted
+(:meth:`Fitter._structural`): a constant on data that move one way only, and an effect with
+declared symmetry partners (``FitSpec.symmetric_with``: a vehicle's mass or yaw-inertia
+ratio against both axles' tire-law scales) that is undetermined with the partners fitted
+beside it. A term failing either stays in the fit as the identifiable combination it
+carries (so that no other effect stands in for it) but is not named
+(:attr:`Fitter.combinations`, decision "not identifiable"). Effects declared for all
+channels at once (``EffectSpec.all_channels``: one road μ) are also tried on all channels
+together, so that a vehicle-scope term gaining on both axles with one parameter does not
+beat them axle by axle.
+
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
 bound is negative); nonlinear ones (Stribeck vs, tire mu, steering lag tau) by
@@ -67,7 +78,7 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
 from simgap.diagnosis import identifiability, validation
-from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect
+from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect, report_params
 from simgap.diagnosis.errormodel import autocorrelation_time
 from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.significance import likelihood_ratio
@@ -925,9 +936,13 @@ class Fitter:
         * An effect with ``symmetric_with`` partners (a vehicle's mass or yaw-inertia
           ratio: mass, yaw inertia and all tire forces scaled together leave the motion
           unchanged): refitted with the partners (both axles' cornering-stiffness ratios)
-          freed beside it, the joint check (:func:`.identifiability.analyse`) finds a
-          direction carrying it undetermined: steady manoeuvres fix only the ratio of
-          inertia to tire forces. The combination is reported instead.
+          freed beside it, it is undetermined when the joint check
+          (:func:`.identifiability.analyse`) finds a direction carrying it undetermined,
+          or its parameters end on a plausibility limit or within :data:`SYMMETRY_Z`
+          standard errors of the nominal (steady manoeuvres fix only the ratio of inertia
+          to tire forces; the regressors carry the residual's own noise, so the fit slides
+          along the symmetry and the value-based test of ``analyse`` alone can miss it).
+          The combination (its value relative to the nominal tire laws) is reported.
         """
         out: dict[tuple, str] = {}
         shares = self._directions()
@@ -1126,11 +1141,10 @@ def _p_of(entry: dict[str, Any]) -> float:
 
 
 def _ratio_text(fit: FitResult, term: Term) -> str:
-    """A term's fitted parameters as ``name = value`` text (fit coordinates).
-
-    A ratio r reads ``ratio_minus_1 = r − 1``.
-    """
-    vals = _params(fit, fit.terms.index(term))
+    """A term's fitted parameters as reported (``ratio = 1.18``), as text."""
+    i = fit.terms.index(term)
+    sl = fit.slices()[i]
+    vals, _, _ = report_params(term.effect, fit.lin[i], fit.nl[i], fit.cov[sl, sl])
     return ", ".join(f"{k} = {v:.3g}" for k, v in vals.items())
 
 
