@@ -17,12 +17,13 @@ output in a few recurring ways, each imitated here as a pure function
 ``truncate``               a short log
 =========================  ================================================================
 
-Two presets change what is recorded rather than spoil a recording (``scenario`` set, see
-:mod:`simgap.diagnosis.scenarios`): ``free_decay_damping`` (a pendulum released with no
-input, the nominal damping 15 % too high, with and without a real Coulomb friction) and
+Three presets change what is recorded rather than spoil a recording (``scenario`` set,
+see :mod:`simgap.diagnosis.scenarios`): ``free_decay_damping`` (a pendulum released with
+no input, the nominal damping 15 % too high, with and without a real Coulomb friction),
 ``one_direction_circles`` (the vehicle on steady circles, one turn direction per run, two
-runs joined by a gap). Their ``apply`` only notes the scenario in ``meta``; a benchmark
-builds their recordings with the scenario.
+runs joined by a gap), and ``one_direction_single_run`` (one run turning left only). Their
+``apply`` only notes the scenario in ``meta``; a benchmark builds their recordings with the
+scenario.
 
 ``ARTEFACTS`` names one preset of each (with the position/velocity column pairs of the
 recording given by the caller) so that a benchmark can iterate every effect × artefact.
@@ -227,6 +228,9 @@ ARTEFACTS: dict[str, Artefact] = {a.name: a for a in (
              description="steady circles, one turn direction per run (left run, gap, "
                          "right run)",
              apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(circles)")),
+    Artefact(name="one_direction_single_run", scenario="circles_one_run",
+             description="steady circles turning left only (one 20 s run)",
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(circles_one_run)")),
 )}
 
 
