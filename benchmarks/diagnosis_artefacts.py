@@ -5,7 +5,12 @@ Each vocabulary effect is injected alone (random parameters from
 ``simgap.diagnosis.artefacts.ARTEFACTS`` is then applied (quantised encoder with
 finite-difference velocity, upstream-denoised velocity, coloured noise, 100 Hz, time-stamp
 jitter, a gap, a 15 s log) and the diagnosis runs blind. Clean recordings with each artefact
-count false claims. Writes JSON (``--out``) and prints a Markdown summary on stderr.
+count false claims. Two presets are scenarios (:mod:`simgap.diagnosis.scenarios`): free
+decays of a pendulum whose nominal damping is 15 % too high, with and without a real
+Coulomb friction (expected: a negative viscous correction, and the Coulomb friction; clean:
+the nominal damping right), and one-direction steady circles (every bicycle effect; clean:
+no effect), as a left run and a right run or as one left run only. Writes JSON (``--out``)
+and prints a Markdown summary on stderr.
 
 This measures today's pipeline; it is the table issue 13 asks to fix, not a claim that it
 passes.
@@ -27,22 +32,67 @@ import numpy as np
 from simgap.diagnosis.artefacts import ARTEFACTS
 from simgap.diagnosis.generate import generate
 from simgap.diagnosis.proof import RANGES, TOLERANCE, draw, model_of, run_case
+from simgap.diagnosis.scenarios import circles, decay
 from simgap.errors import SimgapError
 
 DURATION = {"manipulator2dof": 20.0, "bicycle": 40.0}
 PAIRS = {"manipulator2dof": {"dq1": "q1", "dq2": "q2"}, "bicycle": {}}
 
 
-def _case(effects, model, seed, artefact):
-    rec = generate(model, effects, seed=seed, duration=DURATION[model])
-    rec = ARTEFACTS[artefact].apply(rec, PAIRS[model], np.random.default_rng(9000 + seed))
+#: Cases of the free-decay scenario: name -> with a real Coulomb friction?
+DECAY_CASES = {"damping_too_high": False, "damping_too_high+coulomb_friction": True}
+
+
+def _scored(effects, model, seed, rec):
     try:
         r = run_case(effects, model, seed, recording=rec)
     except SimgapError as err:
         return {"error": str(err)}
     return {"named": r.named, "param_error": r.param_error, "extra": r.extra,
             "found": [f"{e['effect']}@{e['channel']}" for e in r.found],
+            "found_params": [e["parameters"] for e in r.found],
             "significant": r.significant, "improvement": r.improvement}
+
+
+def _case(effects, model, seed, artefact):
+    rec = generate(model, effects, seed=seed, duration=DURATION[model])
+    rec = ARTEFACTS[artefact].apply(rec, PAIRS[model], np.random.default_rng(9000 + seed))
+    return _scored(effects, model, seed, rec)
+
+
+def _scenario_rows(art: str, effects: list[str], seeds: int, n_clean: int, log) -> tuple:
+    """Rows and clean rows of a scenario preset (free decays, one-direction circles)."""
+    rows, clean = [], []
+    if ARTEFACTS[art].scenario == "decay":
+        for name, coulomb in DECAY_CASES.items():
+            for seed in range(seeds):
+                sc = decay(seed, coulomb_friction=coulomb)
+                res = _scored(sc.expected, sc.model, seed, sc.recording)
+                rows.append({"artefact": art, "effect": name, "seed": seed, "channel": "joint1",
+                             "injected": {e.effect: dict(e.params) for e in sc.expected},
+                             "truth": sc.truth, **res})
+                log(art, name, seed, res)
+        for seed in range(n_clean):
+            sc = decay(500 + seed, coulomb_friction=False, damping_error=0.0)
+            clean.append({"artefact": art, "model": "pendulum", "seed": seed,
+                          **_scored([], sc.model, seed, sc.recording)})
+        return rows, clean
+    dirs = ("left",) if ARTEFACTS[art].scenario == "circles_one_run" else ("left", "right")
+    for name in effects:                      # circles: the bicycle's effects
+        if model_of(name) != "bicycle":
+            continue
+        for seed in range(seeds):
+            inj = draw(name, np.random.default_rng(1000 + seed))
+            sc = circles([inj], seed, directions=dirs)
+            res = _scored(sc.expected, "bicycle", seed, sc.recording)
+            rows.append({"artefact": art, "effect": name, "seed": seed, "channel": inj.channel,
+                         "injected": inj.params, **res})
+            log(art, name, seed, res)
+    for seed in range(n_clean):
+        sc = circles([], 500 + seed, directions=dirs)
+        clean.append({"artefact": art, "model": "bicycle", "seed": seed,
+                      **_scored([], "bicycle", seed, sc.recording)})
+    return rows, clean
 
 
 def summarise(rows: list[dict], clean: list[dict], arts: list[str]) -> dict[str, dict]:
@@ -84,7 +134,17 @@ def main() -> None:
     arts = [a for a in args.artefacts.split(",") if a]
     t0 = time.perf_counter()
     rows, clean = [], []
+    def log(art, name, seed, res):
+        print(f"[{time.perf_counter() - t0:7.1f} s] {art} {name} seed {seed}: "
+              f"{'error' if 'error' in res else res['named']} {res.get('found')}",
+              file=sys.stderr)
+
     for art in arts:
+        if ARTEFACTS[art].scenario is not None:
+            r, c = _scenario_rows(art, effects, args.seeds, args.clean, log)
+            rows += r
+            clean += c
+            continue
         for name in effects:
             model = model_of(name)
             if ARTEFACTS[art].needs_positions and not PAIRS[model]:

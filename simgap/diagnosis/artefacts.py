@@ -17,6 +17,14 @@ output in a few recurring ways, each imitated here as a pure function
 ``truncate``               a short log
 =========================  ================================================================
 
+Three presets change what is recorded rather than spoil a recording (``scenario`` set,
+see :mod:`simgap.diagnosis.scenarios`): ``free_decay_damping`` (a pendulum released with
+no input, the nominal damping 15 % too high, with and without a real Coulomb friction),
+``one_direction_circles`` (the vehicle on steady circles, one turn direction per run, two
+runs joined by a gap), and ``one_direction_single_run`` (one run turning left only). Their
+``apply`` only notes the scenario in ``meta``; a benchmark builds their recordings with the
+scenario.
+
 ``ARTEFACTS`` names one preset of each (with the position/velocity column pairs of the
 recording given by the caller) so that a benchmark can iterate every effect × artefact.
 The functions never touch the recording's ``meta`` except to append what was applied under
@@ -173,6 +181,9 @@ def truncate(rec: Recording, duration: float) -> Recording:
 class Artefact:
     """One named artefact preset: ``apply(recording, pairs, rng) -> recording``.
 
+    ``scenario`` names a :mod:`simgap.diagnosis.scenarios` scenario (``"decay"``,
+    ``"circles"``) that makes the recording itself (``apply`` then only notes it).
+
     ``pairs`` maps each velocity column to its position column (empty for systems without
     positions, e.g. the bicycle's vy, r); artefacts that need positions then do nothing
     more than their other parts and say so in ``needs_positions``.
@@ -182,6 +193,7 @@ class Artefact:
     description: str
     apply: Callable[[Recording, Mapping[str, str], np.random.Generator], Recording]
     needs_positions: bool = False
+    scenario: str | None = None
 
 
 def _std_of(rec: Recording, columns: Sequence[str], share: float) -> dict[str, float]:
@@ -208,6 +220,17 @@ ARTEFACTS: dict[str, Artefact] = {a.name: a for a in (
              apply=lambda r, p, g: cut_gap(r, 0.4 * _span(r), 0.25 * _span(r))),
     Artefact(name="short_15s", description="only the first 15 s",
              apply=lambda r, p, g: truncate(r, 15.0)),
+    Artefact(name="free_decay_damping", scenario="decay",
+             description="pendulum free decays (u = 0), nominal damping 15 % too high, "
+                         "with and without a real Coulomb friction",
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(decay)")),
+    Artefact(name="one_direction_circles", scenario="circles",
+             description="steady circles, one turn direction per run (left run, gap, "
+                         "right run)",
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(circles)")),
+    Artefact(name="one_direction_single_run", scenario="circles_one_run",
+             description="steady circles turning left only (one 20 s run)",
+             apply=lambda r, p, g: _noted(r, dict(r.columns), "scenario(circles_one_run)")),
 )}
 
 

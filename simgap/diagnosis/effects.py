@@ -212,7 +212,9 @@ def nominal_corrections(effect: Effect, params: Mapping[str, float]) -> dict[str
     Returns:
         ``{coordinate: {"coefficient", "nominal", "corrected", "relative", "text"}}`` for
         each coordinate the effect corrects on a nominal that holds it; ``relative`` is the
-        change over the nominal value: corrected = nominal·(1 + relative).
+        change over the nominal value: corrected = nominal·(1 + relative); ``nominal_error``
+        is how far off the nominal was: nominal = corrected·(1 + nominal_error) ("the
+        nominal damping is 15 % too high").
     """
     out: dict[str, dict] = {}
     names = dict(effect.corrects)
@@ -221,10 +223,15 @@ def nominal_corrections(effect: Effect, params: Mapping[str, float]) -> dict[str
             continue
         corrected = nominal + float(params[coord])
         rel = float(params[coord]) / nominal
+        # how far off the nominal was, relative to the corrected (fitted) value
+        off = nominal / corrected - 1.0 if corrected > 0 else float("inf")
+        verdict = "" if not np.isfinite(off) else (
+            f": the nominal {names[coord]} is {100 * abs(off):.0f} % too "
+            f"{'high' if off > 0 else 'low'}")
         out[coord] = {"coefficient": names[coord], "nominal": nominal, "corrected": corrected,
-                      "relative": rel,
+                      "relative": rel, "nominal_error": off,
                       "text": f" (the nominal {names[coord]} {nominal:.4g} → {corrected:.4g}, "
-                              f"{100 * rel:+.0f} %)"}
+                              f"{100 * rel:+.0f} %{verdict})"}
     return out
 
 

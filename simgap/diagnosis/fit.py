@@ -44,6 +44,17 @@ pair is reported as a collinearity warning; when the outer test part separates t
 instead (:meth:`Fitter._separate_aliases`): the selection's pick between two hypotheses that
 explain the same validation residual is noise, not evidence.
 
+Two structural checks run on each round's pick before it is accepted
+(:meth:`Fitter._structural`): a constant on data that move one way only, and an effect with
+declared symmetry partners (``FitSpec.symmetric_with``: a vehicle's mass or yaw-inertia
+ratio against both axles' tire-law scales) that is undetermined with the partners fitted
+beside it. A term failing either stays in the fit as the identifiable combination it
+carries (so that no other effect stands in for it) but is not named
+(:attr:`Fitter.combinations`, decision "not identifiable"). Effects declared for all
+channels at once (``EffectSpec.all_channels``: one road μ) are also tried on all channels
+together, so that a vehicle-scope term gaining on both axles with one parameter does not
+beat them axle by axle.
+
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
 bound is negative); nonlinear ones (Stribeck vs, tire mu, steering lag tau) by
@@ -67,7 +78,7 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
 from simgap.diagnosis import identifiability, validation
-from simgap.diagnosis.effects import Effect
+from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect, report_params
 from simgap.diagnosis.errormodel import autocorrelation_time
 from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.significance import likelihood_ratio
@@ -84,6 +95,9 @@ TRAIN_FRACTION = 0.7
 FLIP_Z = 3.0
 #: An operating rate counts as taking both signs when each holds this share of the rows.
 FLIP_SIDE_SHARE = 0.1
+#: An effect with symmetry partners (``symmetric_with``) is identifiable when, refitted with
+#: them freed, its parameters stay this many standard errors from the nominal (0).
+SYMMETRY_Z = 3.0
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
@@ -252,6 +266,12 @@ class Fitter:
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
         self._alternatives: dict[tuple, list[Term]] = {}
+        #: named terms the outer test part could not detect at their fitted size
+        #: (:meth:`_confirm`), by key: the report says "cannot test" for them
+        self.untestable: dict[tuple, validation.Power] = {}
+        #: terms kept in the fit as an identifiable combination but not named (the reason
+        #: says which combination), by key (:meth:`_structural`)
+        self.combinations: dict[tuple, str] = {}
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
@@ -529,6 +549,21 @@ class Fitter:
         reg = np.concatenate([cols, off[:, :, None]], axis=2) if off_any else cols
         return validation.information_share(reg, self.at(held_out), self.at(train))
 
+    def testable_held_out(self, term: Term, nl: np.ndarray) -> bool:
+        """Whether the outer test part can test a named term (information and power)."""
+        if term.key in self.untestable:
+            return False
+        return self.information(term, nl, self.test, self.fit_rows) >= \
+            validation.NO_INFORMATION
+
+    def untestable_note(self, term: Term) -> str:
+        """Why the test part cannot test a named term it holds some signal of ("" if none)."""
+        power = self.untestable.get(term.key)
+        if power is None:
+            return ""
+        return (f" (were it real at its fitted size, it would give a statistic of "
+                f"{power.expected:.3g} there, below the {power.critical:.3g} the test needs)")
+
     def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult,
                  errors: np.ndarray | None = None) -> dict[str, Any]:
         """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation).
@@ -576,6 +611,15 @@ class Fitter:
         """
         hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
         by_key = {t.key: t for t in remaining}
+        # an effect declared for every channel at once (one road μ, ``all_channels``) is
+        # also tried on all its channels together: per channel, a vehicle-scope term that
+        # gains on both axles with one parameter (a mass ratio mimicking a saturation on
+        # steady circles) would otherwise beat it axle by axle
+        for name in dict.fromkeys(t.effect.name for t in remaining):
+            spec = VOCABULARY_SPECS.get(name)
+            same = [t for t in remaining if t.effect.name == name and t.index is not None]
+            if spec is not None and spec.all_channels and len(same) > 1:
+                hyps.append(tuple(same))
         for fam in FAMILIES:
             for idx in sorted({t.index for t in remaining if t.effect.name == fam[0]},
                               key=lambda i: -1 if i is None else i):
@@ -631,13 +675,47 @@ class Fitter:
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
+            blocked = self._structural(fit, hyp, candidates)
+            if blocked:
+                # not identifiable as such on this data: fitted (the identifiable combination
+                # it carries is part of the model, so that no other term stands in for it)
+                # but not named; the round goes on with it in the fit
+                key = tuple(u.key for u in hyp)
+                entry = tried.pop(key) if key in tried else evals[pick]
+                for t in hyp:
+                    tried[(t.key,)] = dict(entry, effect=t.effect.name, channel=t.channel,
+                                           _hyp=(t,), params=_params(fit, fit.terms.index(t)))
+                    reason = blocked.get(t.key)
+                    if reason is None:
+                        continue
+                    self.combinations[t.key] = reason
+                    sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                         "text": reason})
+                    tried[(t.key,)].update(decision="not identifiable",
+                                           reason=reason + " (fitted as that combination, "
+                                                           "not named)")
+                sel.history[-1].update(term="+".join(t.label for t in hyp),
+                                       gain=float(gains[pick]), p_value=_p_of(evals[pick]),
+                                       accepted=True, not_identifiable=sorted(
+                                           f"{k[0]}@{k[1]}" for k in blocked))
+                current = fit
+                done = {t.key for t in hyp}
+                remaining = [t for t in remaining if t.key not in done]
+                continue
+            for i in ok:
+                if i != pick:
+                    evals[i]["reason"] = (
+                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
+                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
+                        "round (a larger gain, or as large with fewer parameters)")
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
             if len(hyp) > 1:   # a family: each member is named (and pruned) on its own
                 del tried[tuple(t.key for t in hyp)]
                 for t in hyp:
-                    tried[(t.key,)] = dict(e, effect=t.effect.name, _hyp=(t,), reason=(
+                    tried[(t.key,)] = dict(e, effect=t.effect.name, channel=t.channel,
+                                           _hyp=(t,), reason=(
                         f"named with {'+'.join(m.effect.name for m in hyp)} fitted together: "
                         f"{e['reason']}"))
             sel.history[-1].update(term="+".join(t.label for t in hyp),
@@ -674,7 +752,12 @@ class Fitter:
         never fitted) is a second, independent held-out sample. A term whose removal the
         likelihood-ratio test there does not reject (at :data:`ALPHA` shared by the terms)
         is not named: its validation gain did not replicate. A term the test part holds no
-        information about is kept (and reported as not testable there).
+        information about is kept (and reported as not testable there), and so is a term
+        the test part could not detect even if it were real at its fitted size
+        (:func:`.validation.detectable`: the expected statistic below the critical value)
+        *because* the part holds much less information about it per row than the fit part
+        (:data:`.validation.LOW_INFORMATION`), e.g. a damping correction on the small
+        amplitudes at the end of a free decay; those are listed in :attr:`untestable`.
         """
         terms, nls = list(current.terms), list(current.nl)
         while True:
@@ -683,9 +766,21 @@ class Fitter:
                 return final
             alpha = ALPHA / len(terms)
             worst = None
+            left = self._errors(final, self.test)
+            self.untestable = {}
             for i, t in enumerate(terms):
-                if self.information(t, final.nl[i], self.test, self.fit_rows) < \
-                        validation.NO_INFORMATION:
+                share = self.information(t, final.nl[i], self.test, self.fit_rows)
+                if share < validation.NO_INFORMATION:
+                    continue
+                power = validation.detectable(
+                    left, self.on(final, final.pred[i], self.test) * self.w,
+                    t.effect.n_params, alpha)
+                if not power.detectable and share < validation.LOW_INFORMATION:
+                    # the part holds too little of what fitted it to test it (the small
+                    # amplitudes at the end of a decay); a term the part holds as much
+                    # information about as the fit part, but could not detect, is simply
+                    # too small: it is tested below like any other
+                    self.untestable[t.key] = power
                     continue
                 keep = [j for j in range(len(terms)) if j != i]
                 without = self._errors(self.fit([terms[j] for j in keep],
@@ -815,6 +910,88 @@ class Fitter:
             self._forget(sel, t)
             current = f
         return current
+
+    def _directions(self) -> dict[str, float]:
+        """Share of the fit rows on which each direction variable is positive.
+
+        Direction variables are the form's ``direction_variables`` (the bicycle: vy and
+        the yaw rate r, not the forward speed), else every rate (unit ``…/s``) of its
+        ``locate_variables``.
+        """
+        names = getattr(self.sys, "direction_variables", None)
+        out = {}
+        for name, (v, unit) in self.sys.locate_variables(self.prepared).items():
+            if (names is None and str(unit).endswith("/s")) or (names and name in names):
+                v = np.asarray(v)[self.fit_rows]
+                out[name] = float(np.mean(v > 0))
+        return out
+
+    def _structural(self, fit: FitResult, hyp: tuple[Term, ...],
+                    candidates: Sequence[Term]) -> dict[tuple, str]:
+        """Terms of a picked hypothesis the data cannot identify at all, with the reason.
+
+        * A constant effect on data that move one way only (every direction variable of
+          one sign on all but :data:`FLIP_SIDE_SHARE` of the fit rows): a constant and an
+          effect whose sign follows the direction are the same function there.
+        * An effect with ``symmetric_with`` partners (a vehicle's mass or yaw-inertia
+          ratio: mass, yaw inertia and all tire forces scaled together leave the motion
+          unchanged): refitted with the partners (both axles' cornering-stiffness ratios)
+          freed beside it, it is undetermined when the joint check
+          (:func:`.identifiability.analyse`) finds a direction carrying it undetermined,
+          or its parameters end on a plausibility limit or within :data:`SYMMETRY_Z`
+          standard errors of the nominal (steady manoeuvres fix only the ratio of inertia
+          to tire forces; the regressors carry the residual's own noise, so the fit slides
+          along the symmetry and the value-based test of ``analyse`` alone can miss it).
+          The combination (its value relative to the nominal tire laws) is reported.
+        """
+        out: dict[tuple, str] = {}
+        shares = self._directions()
+        one_way = bool(shares) and all(min(p, 1.0 - p) < FLIP_SIDE_SHARE
+                                       for p in shares.values())
+        for i, t in enumerate(fit.terms):
+            if t not in hyp:
+                continue
+            if one_way and self._constant(t, fit.nl[i]):
+                sides = ", ".join(f"{n} {'>' if p >= 0.5 else '<'} 0 on "
+                                  f"{100 * max(p, 1 - p):.0f} %" for n, p in shares.items())
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable from one "
+                              f"direction: the data move one way only ({sides} of the rows), "
+                              "where a constant and an effect whose sign follows the "
+                              "direction are the same; record both directions to tell them "
+                              "apart")
+        for t in hyp:
+            partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with]
+            if not partners or t.key in out:
+                continue
+            missing = [c for c in partners if c.key not in {u.key for u in fit.terms}]
+            both = self.fit_new(fit, missing, full=False) if missing else fit
+            joint = self._joint(both)
+            ana = joint.get("_analysis")
+            mine = {f"{t.label}:{p}" for p in (*t.effect.lin, *t.effect.nl)}
+            combos = [] if ana is None else [c for c in ana.unidentifiable
+                                             if mine & set(c.weights)]
+            # its own parameters with the partners freed: on a limit, or within SYMMETRY_Z
+            # standard errors of the nominal (the partners took it over)
+            k = both.terms.index(t)
+            sl = both.slices()[k]
+            vals = np.concatenate([both.lin[k], both.nl[k]])
+            se = np.sqrt(np.clip(np.diag(both.cov)[sl], 0.0, None) * both.tau)
+            lost = t.label in self.at_limit(both) or bool(
+                np.all(np.abs(vals) < SYMMETRY_Z * se))
+            if combos or lost:
+                what = combos[0].describe() if combos else (
+                    f"its fit moves to {_ratio_text(both, t)} ± "
+                    f"{', '.join(f'{x:.2g}' for x in se)}"
+                    + (" (a plausibility limit)" if t.label in self.at_limit(both) else ""))
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
+                              + " and ".join(f"{p.effect.label} at {p.channel}"
+                                             for p in partners)
+                              + f" fitted beside it, {what}. Inertia and tire forces scaled "
+                              "together leave the motion unchanged, and this data fix only "
+                              "their ratio: the identifiable combination is "
+                              f"{t.effect.label} {_ratio_text(fit, t)} relative to the "
+                              "nominal tire laws")
+        return out
 
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
         """Whether a term is a constant offset (its only regressor constant over rows)."""
@@ -956,6 +1133,19 @@ class Fitter:
                              f"left before it; contributions correlated {corr:+.2f}); "
                              f"reported {term.effect.name} (fewer parameters or better fit). "
                              "Excite the system differently to separate them.")})
+
+
+def _p_of(entry: dict[str, Any]) -> float:
+    """The p-value of a ``tried`` entry as a float."""
+    return float(entry["p_value"])
+
+
+def _ratio_text(fit: FitResult, term: Term) -> str:
+    """A term's fitted parameters as reported (``ratio = 1.18``), as text."""
+    i = fit.terms.index(term)
+    sl = fit.slices()[i]
+    vals, _, _ = report_params(term.effect, fit.lin[i], fit.nl[i], fit.cov[sl, sl])
+    return ", ".join(f"{k} = {v:.3g}" for k, v in vals.items())
 
 
 def _light(fit: FitResult) -> FitResult:

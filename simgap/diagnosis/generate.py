@@ -240,8 +240,21 @@ def steering_program(t: np.ndarray, rng: np.random.Generator, kind: str, amplitu
 
     Kinds: ``random`` (back-to-back full sine periods of random amplitude and frequency
     0.2-1.5 Hz), ``slalom`` (0.5 Hz sine), ``chirp`` (0.1 → 2 Hz), ``step`` (steps of random
-    amplitude every 2-4 s).
+    amplitude every 2-4 s), ``circles_left`` / ``circles_right`` (steady circles turning one
+    way only: levels of 25-100 % of the amplitude held 3-5 s, joined by 1 s cosine ramps).
     """
+    if kind in ("circles_left", "circles_right"):
+        sign = 1.0 if kind == "circles_left" else -1.0
+        out = np.zeros_like(t)
+        t0, level = 0.0, 0.0
+        while t0 < t[-1]:
+            new = sign * amplitude * rng.uniform(0.25, 1.0)
+            hold = rng.uniform(3.0, 5.0)
+            ramp = (t >= t0) & (t < t0 + 1.0)
+            out[ramp] = level + (new - level) * 0.5 * (1.0 - np.cos(np.pi * (t[ramp] - t0)))
+            out[t >= t0 + 1.0] = new
+            t0, level = t0 + 1.0 + hold, new
+        return out
     if kind == "slalom":
         return amplitude * np.sin(2 * np.pi * 0.5 * t)
     if kind == "chirp":
@@ -266,7 +279,8 @@ def steering_program(t: np.ndarray, rng: np.random.Generator, kind: str, amplitu
             out[m] = a * np.sin(2 * np.pi * f * (t[m] - t0))
             t0 += 1.0 / f
         return out
-    raise GeneratorError(f"unknown steering program {kind!r}; use random, slalom, chirp or step")
+    raise GeneratorError(f"unknown steering program {kind!r}; use random, slalom, chirp, step, "
+                         "circles_left or circles_right")
 
 
 @njit(cache=True)

@@ -47,7 +47,7 @@ from simgap.diagnosis.shares import explained_section
 from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
-from simgap.diagnosis.validation import NO_INFORMATION, gap_segments
+from simgap.diagnosis.validation import gap_segments
 from simgap.errors import DiagnosisError
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal
@@ -267,6 +267,8 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
     slices = fit.slices()
     entries, preds, fitted = [], [], []
     for i, term in enumerate(fit.terms):
+        if term.key in fitter.combinations:   # fitted as a combination, not named
+            continue
         sl = slices[i]
         # what the effects this one needs on its channel fitted (Stribeck's Fs includes Fc)
         ctx = needs_context(term.effect, term.index, {
@@ -284,8 +286,7 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
         channel = term.channel
         if term.effect.scope == "arm":
             channel = system.channels[int(np.argmax(np.sum(p_i**2, axis=0)))]
-        info = fitter.information(term, fit.nl[i], test, fitter.fit_rows)
-        testable = info >= NO_INFORMATION
+        testable = fitter.testable_held_out(term, fit.nl[i])  # information and power
         parts = []
         for name in params:
             v, s = fmt(params[name], se[name])
@@ -299,7 +300,8 @@ def _effect_entries(fitter: Fitter, sel: Selection, system: Any
         text += "".join(c["text"] for c in corrections.values())
         share = round(min(1.0, max(0.0, frac)), 4) if testable else 0.0
         held_out = "" if testable else (f"cannot test: the held-out part holds no information "
-                                        f"about {term.effect.label} at {where}")
+                                        f"about {term.effect.label} at {where}"
+                                        + fitter.untestable_note(term))
         entries.append({"effect": term.effect.name, "channel": channel,
                         "parameters": {k: float(v) for k, v in params.items()},
                         "stderr": {k: float(v) for k, v in se.items()},
@@ -457,7 +459,8 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "warnings": sel.warnings,
         "tried": [_jsonable(e) for e in sel.tried],
         "identifiability": sel.identifiability,
-        "verdict": verdict(entries, stats, system, unexplained if base > 0 else None),
+        "verdict": verdict(entries, stats, system, unexplained if base > 0 and any(
+            e["testable_held_out"] for e in entries) else None),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
@@ -495,6 +498,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             "signal_notes": list(res.warnings),
         },
     }
+    if fitter.combinations:   # fitted as identifiable combinations, not named (fit.py)
+        data["verdict"] += (" Not identifiable on this data (fitted as a combination, not "
+                            "named): " + "; ".join(fitter.combinations.values()))
     data["explained"] = explained_section(  # additive shares (simgap.diagnosis.shares)
         r_te[:, sig_idx], [(p[fitter.test] * fitter.w)[:, sig_idx] for p in preds], entries,
         [system.channels[i] for i in sig_idx], min(1.0, noise_share))

@@ -98,7 +98,12 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
         lines.append(f"  warning: {w['text']}")
     for text in data.get("processing", {}).get("signal_notes", []):
         lines.append(f"  signals: {text}")
-    if mm["significant"]:
+    named = data.get("effects", [])
+    if mm["significant"] and named and not any(e.get("testable_held_out", True)
+                                               for e in named):
+        lines.append("  unexplained: cannot say: the held-out part cannot test the named "
+                     "effects (see each effect)")
+    elif mm["significant"]:
         lines.append(f"  unexplained: {100 * data['unexplained_fraction']:.0f} % of the "
                      "held-out residual is not explained by a named effect")
     f = data["fit"]

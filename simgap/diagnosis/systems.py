@@ -583,6 +583,9 @@ class BicycleSystem:
     """Adapter for :class:`BicycleNominal` with the measured, varying vx (see module doc)."""
 
     kind = "bicycle"
+    #: Variables whose sign is the direction of motion (turn direction); not vx, which is
+    #: positive whenever the car drives forward.
+    direction_variables = ("vy", "r")
 
     def __init__(self, model: BicycleNominal | None = None,
                  columns: AdapterColumns = BICYCLE_COLUMNS, name: str | None = None,

@@ -22,6 +22,18 @@ Whether a part can test a term at all is measured by :func:`information_share`: 
 of the term's regressors per held-out row relative to per training row. Where it is ~0 the
 held-out part holds no information about the term, and the report says so instead of
 calling the term useless.
+
+A share above 0 is not yet enough: on a free decay the last usable rows hold the small
+amplitudes, where a damping correction that is plain early on sits below the noise. Whether
+the part *could* confirm a term is a power question, answered by :func:`detectable`: the
+test statistic the part would give if the term were real at its fitted size (its held-out
+contribution added back to the errors left with it) against the critical value of the
+test. Below it, a real effect of that size would be missed at least half the time; when
+the part also holds much less of the term's regressor energy per row than the fit part
+(:data:`LOW_INFORMATION`), it holds too little information about the term to test it, and
+the report says "cannot test" rather than "not confirmed" or "0 % explained". A term that
+is merely small (as undetectable on a part as informative as the fit part) is tested as
+usual: its validation gain must replicate.
 """
 
 from __future__ import annotations
@@ -29,6 +41,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
+
+from simgap.diagnosis.significance import likelihood_ratio
 
 #: Contiguous blocks the fit part is cut into (an evenly spread share validates).
 BLOCKS = 20
@@ -36,6 +51,10 @@ BLOCKS = 20
 MIN_BLOCK_ROWS = 5
 #: Held-out regressor energy per row below this share of the training one: no information.
 NO_INFORMATION = 1e-6
+#: Held-out regressor energy per row below this share of the fit part's: a part that could
+#: not detect a term there is "cannot test" (it holds too little of what fitted the term),
+#: not evidence against it (:func:`detectable`).
+LOW_INFORMATION = 0.25
 #: A time step longer than this many median steps is a gap in the log.
 GAP_STEPS = 5.0
 
@@ -178,3 +197,41 @@ def information_share(regressors: np.ndarray, held_out: np.ndarray, train: np.nd
         elif e_ho > 0:
             return float("inf")
     return best if any_train else 1.0
+
+
+@dataclass(frozen=True)
+class Power:
+    """Whether a held-out part could detect a term of its fitted size.
+
+    Attributes:
+        detectable: the expected statistic reaches the critical value (and the part holds
+            enough effective samples to test at all).
+        expected: likelihood-ratio statistic the part gives if the term is real at its
+            fitted size (nan when the part cannot be tested at all).
+        critical: χ²(dof) critical value at the test's level.
+    """
+
+    detectable: bool
+    expected: float
+    critical: float
+
+
+def detectable(errors: np.ndarray, contribution: np.ndarray, dof: int, alpha: float
+               ) -> Power:
+    """Could a held-out part confirm a term? (see the module docstring).
+
+    Args:
+        errors: (N, C) whitened errors the fit *with* the term leaves on the part.
+        contribution: (N, C) the term's whitened contribution on the part.
+        dof: the term's number of parameters.
+        alpha: level of the confirmation test.
+
+    Returns:
+        The :class:`Power`: the statistic of :func:`~.significance.likelihood_ratio` between
+        ``errors + contribution`` (the term left out, were it real) and ``errors``.
+    """
+    e = np.asarray(errors, dtype=np.float64)
+    g = likelihood_ratio(e + np.asarray(contribution, dtype=np.float64), e, dof)
+    crit = float(stats.chi2.isf(alpha, max(int(dof), 1)))
+    return Power(detectable=bool(g.testable and g.statistic >= crit),
+                 expected=float(g.statistic), critical=crit)

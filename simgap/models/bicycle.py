@@ -547,11 +547,18 @@ def _ratio_report(effect, lin, nl, cov, context):
 
 
 def _ratio_fit(scope: str, lower: float, upper: float, fn: Any, *,
-               uses_derivatives: bool = False) -> FitSpec:
+               uses_derivatives: bool = False, symmetric_with: tuple[str, ...] = ()
+               ) -> FitSpec:
     """A ratio fitted as ratio − 1 within [lower, upper] and reported as the ratio."""
     return FitSpec(scope=scope, lin=("ratio_minus_1",), lin_units=("-",), lin_lower=(lower,),
                    lin_upper=(upper,), uses_derivatives=uses_derivatives, fn=fn,
-                   to_report=_ratio_report)
+                   to_report=_ratio_report, symmetric_with=symmetric_with)
+
+
+#: Mass, yaw inertia and every tire force scaled by one factor leave the motion unchanged:
+#: an inertia ratio is named only where it is determined with both axles' tire-law scales
+#: (cornering stiffness ratios) freed beside it.
+_TIRE_SCALE = ("cornering_stiffness",)
 
 
 def _steering_lag_for_data(effect, sig, axle, ctx):
@@ -593,12 +600,14 @@ VOCABULARY = (
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.1, 1.25)),),
                write=_scale("m"),
-               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_mass, uses_derivatives=True)),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_mass, uses_derivatives=True,
+                              symmetric_with=_TIRE_SCALE)),
     EffectSpec(name="yaw_inertia_mismatch", label="yaw inertia mismatch", scope="system",
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.15, 1.3)),),
                write=_scale("Iz"),
-               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_yaw_inertia, uses_derivatives=True)),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_yaw_inertia, uses_derivatives=True,
+                              symmetric_with=_TIRE_SCALE)),
     EffectSpec(name="steering_lag", label="steering lag", scope="channel", all_channels=True,
                params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
                write=_value("steering_lag", "tau"), needs=("tire_saturation",),

@@ -91,6 +91,11 @@ class FitSpec:
             already holds this term (its own ``damping`` for viscous b), the coordinate is a
             signed correction of it, bounded below by −(the nominal's value) instead of by
             ``lin_lower``: "the nominal damping is 15 % too high" is b = −0.15·damping.
+        symmetric_with: effects (any channel) that, scaled together with this one, leave
+            the motion unchanged: mass, yaw inertia and all tire forces of a vehicle (its
+            cornering stiffnesses) scaled by one factor. This effect is named only where it
+            stays determined with those freed beside it (the diagnosis' joint check);
+            otherwise the identifiable combination is reported.
         fn: the contribution, :data:`FitFn`.
         to_report: ``to_report(effect, lin, nl, cov, context) -> (params, stderr, units)``;
             ``None``: the fit coordinates are the reported parameters. ``context`` holds
@@ -121,6 +126,7 @@ class FitSpec:
     generic: bool = True
     on_input: bool = False
     corrects: tuple[tuple[str, str], ...] = ()
+    symmetric_with: tuple[str, ...] = ()
     fn: FitFn = field(repr=False)
     to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None \
         = field(default=None, repr=False)
