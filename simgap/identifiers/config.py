@@ -277,13 +277,14 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       observer keeps its Euler pole ≥ 0.8 (|a_d| ≤ 0.2/Δt: z's pole already takes 0.5 of
       the step): the bicycle keeps a_d = −20 s⁻¹, λ = 50 s⁻¹ (measured: a_d = −22.5, −25
       raise Case 2-1's frozen consistency, seed 0, from 0.31 to 0.78, 0.61; bar 0.60),
-      ``Pendulum-v1`` gets −4 s⁻¹ (median ‖x̃‖ 0.043-0.044, seeds 0-2). Measured on the
+      ``Pendulum-v1`` gets −4 s⁻¹ (median ‖x̃‖ 0.044-0.048, seeds 0-2). Measured on the
       arm, seeds 0-2, last part / consistency: sines 0.101-0.106 → 0.090-0.096 /
       0.139-0.168 → 0.153-0.174, Case 1 with noise k = 50 consistency 0.144-0.166 →
-      0.134-0.172 (seed 0: λ = 50, 100, 250 at a_d = −50: 0.139, 0.139, 0.134), Case 1
-      0.031-0.033 → 0.029-0.037. Why the sines stay above 0.08 (measured, seed 0): not the
-      network's size or inputs: the offline least-squares fit of the same network (20
-      tanh units, no bias, x̄ ⊘ RMS) on the same data reaches 0.040 (0.037 with a bias,
+      0.134-0.172 (seed 0: λ = 50, 100, 250 at a_d = −50: 0.139, 0.139, 0.134; with the
+      x̃-bounded hidden step of :func:`~simgap.identifiers.laws.bound_error2` on top,
+      0.102-0.126), Case 1 0.031-0.033 → 0.029-0.037 (0.032-0.034 with it).
+      Why the sines stay above 0.08 (measured, seed 0): not the network's size or inputs:
+      the offline least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS) on the same data reaches 0.040 (0.037 with a bias,
       0.036 with 40 units, 0.019 with the joint velocities as inputs), but that optimum
       has hidden gains up to ~70 and a Ŵ with cancellations: learning Ŵ online on those
       very features gives 0.22. What an online law reaches at γ = 5 s⁻¹ is set by how fast
@@ -291,8 +292,9 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       at 0.085 (the learnt V̂ rows keep norms 1-2, ĝ stays smooth through every Coulomb
       jump at dq = 0, where half the error is); the observer's lag adds 0.085 → 0.103, z's
       (λ = 50) → 0.115; six passes over the 120 s leave the integral law (a_d = −20,
-      λ = 50) at 0.087. Faster tracking (γ × 1.5-2 or κ = 8) reaches 0.082-0.087 but fails
-      the noise item (0.17-0.20).
+      λ = 50) at 0.087. Faster tracking (γ × 1.5-2 or κ = 8) reaches 0.082-0.087 but failed
+      the noise item (0.17-0.20) before the x̃ bound; with it, κ = 8 gives sines 0.084,
+      noise 0.142 (seed 0): still above 0.08, at the price of Case 2-1 (κ above).
     * Hidden-layer normaliser ‖Ŵ D‖_F² (D = I − Λ) rather than ‖Ŵ‖_F²
       (:func:`~simgap.identifiers.laws.normalised_rates`): it bounds the same output move
       (‖x̄‖² Ŵ D² Ŵᵀ) more tightly, so saturated units do not shrink the step twice (once
@@ -305,7 +307,8 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       only bias path). The bicycle's identifier inputs are (v_y, r, δ_f, δ_r), all
       zero-mean (v_x is a parameter of the nominal model, not an input), so RMS = standard
       deviation there and centring cannot be what it lacked. A faster observer at the same γ
-      (a_d = −80 s⁻¹ on the arm): no gain on the sines. Twice the hidden width: no gain.
+      (a_d = −80 s⁻¹ on the arm): no gain on the sines
+      with λ = 4γ (it is what the integral law now does, with λ = 0.5/Δt, above). Twice the hidden width: no gain.
     * Baseline 2: r_j = Δt(ĝ − g) and δ_j = Δt r_j / M, so c_e = 1/Δt²; one burst every
       P_upd steps moves ĝ by η Δt² of ε, and η = γ P_upd / Δt matches the observer laws'
       rate per second (γ P_upd Δt = 5/16 per burst). Buffer 1000 transitions, M = 32,
