@@ -284,8 +284,8 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       x̃-bounded hidden step of :func:`~simgap.identifiers.laws.bound_error2` on top,
       0.102-0.126), Case 1 0.031-0.033 → 0.029-0.037 (0.032-0.034 with it).
       Why the sines stay above 0.08 (measured, seed 0): not the network's size or inputs:
-      the offline least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS) on the same data reaches 0.040 (0.037 with a bias,
-      0.036 with 40 units, 0.019 with the joint velocities as inputs), but that optimum
+      the offline least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS)
+      on the same data reaches 0.040 (0.037 with a bias, 0.036 with 40 units, 0.019 with the joint velocities as inputs), but that optimum
       has hidden gains up to ~70 and a Ŵ with cancellations: learning Ŵ online on those
       very features gives 0.22. What an online law reaches at γ = 5 s⁻¹ is set by how fast
       it tracks: an emulated law with the lag-free residual error as its signal plateaus
@@ -307,8 +307,8 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       only bias path). The bicycle's identifier inputs are (v_y, r, δ_f, δ_r), all
       zero-mean (v_x is a parameter of the nominal model, not an input), so RMS = standard
       deviation there and centring cannot be what it lacked. A faster observer at the same γ
-      (a_d = −80 s⁻¹ on the arm): no gain on the sines
-      with λ = 4γ (it is what the integral law now does, with λ = 0.5/Δt, above). Twice the hidden width: no gain.
+      (a_d = −80 s⁻¹ on the arm): no gain on the sines with λ = 4γ (with λ = 0.5/Δt it is
+      what the integral law now does, above). Twice the hidden width: no gain.
     * Baseline 2: r_j = Δt(ĝ − g) and δ_j = Δt r_j / M, so c_e = 1/Δt²; one burst every
       P_upd steps moves ĝ by η Δt² of ε, and η = γ P_upd / Δt matches the observer laws'
       rate per second (γ P_upd Δt = 5/16 per burst). Buffer 1000 transitions, M = 32,
