@@ -285,7 +285,8 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       0.102-0.126), Case 1 0.031-0.033 → 0.029-0.037 (0.032-0.034 with it).
       Why the sines stay above 0.08 (measured, seed 0): not the network's size or inputs:
       the offline least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS)
-      on the same data reaches 0.040 (0.037 with a bias, 0.036 with 40 units, 0.019 with the joint velocities as inputs), but that optimum
+      on the same data reaches 0.040 (0.037 with a bias, 0.036 with 40 units, 0.019 with
+      the joint velocities as inputs), but that optimum
       has hidden gains up to ~70 and a Ŵ with cancellations: learning Ŵ online on those
       very features gives 0.22. What an online law reaches at γ = 5 s⁻¹ is set by how fast
       it tracks: an emulated law with the lag-free residual error as its signal plateaus
