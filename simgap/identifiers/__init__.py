@@ -30,7 +30,8 @@ Public API
 
 ``preset(system, kind, *, dt=None) -> IdentifierConfig``
     ``system`` is ``"auto"`` (scale-free, for any env, needs ``dt``: bound-normalised
-    gradients, a_d = −min(0.25/Δt, 20 s⁻¹), one adaptation bandwidth |a_d|/4 for every law;
+    gradients, a_d = −min(0.25/Δt, 20 s⁻¹), one adaptation bandwidth |a_d|/4 for every law,
+    the integral law's own observer and z filter above that loop (−50 s⁻¹, 250 s⁻¹ at 2 ms);
     derivation in :func:`~simgap.identifiers.config.auto_preset`; the default of the
     wrappers), or the thesis reproduction presets ``"manipulator"`` (Table 4.3) and
     ``"bicycle"`` (Table 4.4, network (4, 20, 2) per the errata). The kinds, their kernel

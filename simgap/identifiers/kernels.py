@@ -51,6 +51,7 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
+    bound_error2,
     dot,
     jacobian_norm2,
     normalised_rates,
@@ -283,6 +284,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         return STATUS_STATE_DIVERGED
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
+        inv = 1.0
         if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
             for r in range(n):
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
@@ -294,9 +296,9 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         k2 = dt * R[HP_ETA2]
         ce = R[HP_ESCALE]
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
+            dd = bound_error2(mode, T, td, txt, n, inv / (a_d * R[HP_LAM]))
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
-                                      dot(T, td, T, td, n), jacobian_norm2(R, ow, n, h, T, ts),
-                                      ce)
+                                      dd, jacobian_norm2(R, ow, n, h, T, ts), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
                               leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
                               tsc):

@@ -55,7 +55,8 @@ def test_observer_update_matches_matrix_form(kind):
 @pytest.mark.parametrize("kind", ["instantaneous", "integral"])
 def test_normalised_observer_step_matches_matrix_form(kind):
     """Bound-normalised steps (the auto preset's): k1' = k1/(1 + ‖σ‖²) and
-    k2' = k2/(‖x̄‖² (‖Ŵ D‖_F² + c_e² ‖δ‖²)), D = I − Λ, written out with matrices."""
+    k2' = k2/(‖x̄‖² (‖Ŵ D‖_F² + c_e² d²)), D = I − Λ, written out with matrices; d² = ‖δ‖²
+    for baseline 1 and max(‖δ‖², ‖x̃‖²/(a_d λ)²) for the integral law."""
     from simgap.identifiers.config import error_scale
 
     rng = np.random.default_rng(4)
@@ -76,7 +77,11 @@ def test_normalised_observer_step_matches_matrix_form(kind):
         delta = e / cfg.a_d
         wd = np.sum((W * (1.0 - s ** 2)) ** 2)  # ‖Ŵ D‖_F², not ‖Ŵ‖_F²
         k1 = dt * cfg.eta1 / (1.0 + s @ s)
-        k2 = dt * cfg.eta2 / ((xb @ xb) * (wd + ce * ce * (delta @ delta)))
+        d2 = delta @ delta
+        if kind == "integral":  # bounded by the instantaneous error too
+            xt = x - x_hat
+            d2 = max(d2, (xt @ xt) / (cfg.a_d * cfg.lam) ** 2)
+        k2 = dt * cfg.eta2 / ((xb @ xb) * (wd + ce * ce * d2))
         W_new = W - k1 * np.outer(delta, s)  # noqa: N806
         V_new = V - k2 * np.outer((1.0 - s ** 2) * (W.T @ delta), xb)  # noqa: N806
         x_hat = x_hat + dt * (f + W @ s - cfg.a_d * (x - x_hat))
