@@ -11,9 +11,10 @@ Per seed and variant: SAC for ``--steps`` env steps; every ``--eval-every`` step
 deterministic policy is evaluated on μ = 0.45 / 0.6 / 0.9 (one 4 s episode each, the
 identifier copied from the training env). Runs are interleaved (seed 0 plain, seed 0
 residual, seed 1 ...) and the JSON is rewritten after every run (``"complete": false`` until
-the last), so an interrupted job keeps balanced, usable results; ``--resume`` skips the runs
-already in it. Writes ``rl_residual.json`` and ``rl_residual.png`` (learning curves: mean
-over seeds with a 95 % t-interval band). Progress on stderr.
+the last; the PNG too), so an interrupted job keeps balanced, usable results; ``--resume``
+skips the runs already in it; ``"completed_seeds"`` lists the seeds finished with every
+variant, ``"seeds_pending"`` the rest. Writes ``rl_residual.json`` and ``rl_residual.png``
+(learning curves: mean over seeds with a 95 % t-interval band). Progress on stderr.
 
 Usage (one command; about 60-70 min of one core with the defaults, see docs/downstream.md):
     nohup .venv/bin/python benchmarks/rl_residual.py > rl.log 2>&1 &
@@ -28,6 +29,7 @@ Split over processes (same total compute, less wall time), then merge:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -80,6 +82,14 @@ def summarise(runs: list[dict]) -> dict:
     return summary
 
 
+def completed_seeds(runs: list[dict]) -> list[int]:
+    """Seeds whose runs finished for every variant (the balanced, usable ones)."""
+    from simgap.control.rl import VARIANTS
+
+    pairs = {(r["seed"], r["variant"]) for r in runs}
+    return sorted({s for s, _ in pairs if all((s, v) in pairs for v in VARIANTS)})
+
+
 def write_json(path: Path, data: dict) -> None:
     """Write ``data`` to ``path`` through a temporary file (never a half-written JSON)."""
     tmp = path.with_suffix(".json.tmp")
@@ -118,6 +128,7 @@ def merge(parts: list[Path], path: Path) -> dict:
     runs = [r for r in runs if r["seed"] in whole]
     res = {**datas[0], "complete": True, "settings": {**datas[0]["settings"],
                                     "seeds": sorted({r["seed"] for r in runs})},
+           "completed_seeds": completed_seeds(runs), "seeds_pending": [],
            "runs": runs, "summary": summarise(runs),
            "wall_s_total": sum(d["wall_s_total"] for d in datas),
            "wall_s_note": "sum over the merged parts (processes that ran at the same time)",
@@ -144,6 +155,9 @@ def main(argv: list[str] | None = None) -> dict:
                     help="keep the runs already in the output JSON (same settings)")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--name", default=None, help="output stem (default rl_residual)")
+    ap.add_argument("--residual-scale", type=float, nargs="+", default=None,
+                    help="a declared ĝ scale for the residual variant (m/s² and rad/s², one "
+                         "value or one per component) instead of the running RMS")
     ap.add_argument("--merge", type=Path, nargs="+", default=None,
                     help="combine complete JSON outputs of the same settings run for different "
                          "seeds (e.g. two processes) into --name")
@@ -157,6 +171,10 @@ def main(argv: list[str] | None = None) -> dict:
     else:
         steps, seeds, every = args.steps, args.seeds, args.eval_every
         task, eval_mus = RLTask(), (0.45, 0.6, 0.9)
+    if args.residual_scale is not None:
+        declared = args.residual_scale[0] if len(args.residual_scale) == 1 \
+            else tuple(args.residual_scale)
+        task = dataclasses.replace(task, residual_scale=declared)
     name = args.name or ("rl_residual_quick" if args.quick else "rl_residual")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"{name}.json"
@@ -167,7 +185,11 @@ def main(argv: list[str] | None = None) -> dict:
                 "eval_every": every, "eval_mus": list(eval_mus),
                 "task": {**task.__dict__, "mu_range": list(task.mu_range)},
                 "observation_scale": "ResidualObservation scale='running' (per-component "
-                                     "cumulative RMS of ĝ), clip ±10"}
+                                     "cumulative RMS of ĝ), clip ±10"
+                if task.residual_scale == "running" else
+                f"ResidualObservation declared scale {task.residual_scale} (m/s², rad/s²), "
+                "clip ±10"}
+    settings = json.loads(json.dumps(settings))  # as read back by --resume (lists)
     if args.merge:
         return merge(args.merge, path)
     runs: list[dict] = []
@@ -188,7 +210,10 @@ def main(argv: list[str] | None = None) -> dict:
     def result(complete: bool) -> dict:
         return {"benchmark": "rl_residual", "complete": complete, "settings": settings,
                 "monitor_info_keywords": list(RL_INFO_KEYWORDS),
-                "summary": summarise(runs) if runs else {}, "runs": runs,
+                "summary": summarise(runs) if runs else {},
+                "completed_seeds": completed_seeds(runs),
+                "seeds_pending": [s for s in seeds if s not in completed_seeds(runs)],
+                "runs": runs,
                 "wall_s_total": wall_before + time.time() - started,
                 "load_at_start": load_start, "load_at_end": load_string(),
                 "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
@@ -210,6 +235,7 @@ def main(argv: list[str] | None = None) -> dict:
               f"{run['final_return_mean']:.3f} (base {np.mean(run['base_returns']):.3f}), "
               f"{run['wall_s']:.0f} s", file=sys.stderr, flush=True)
         write_json(path, result(complete=False))
+        rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
     res = result(complete=True)
     write_json(path, res)
     rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
