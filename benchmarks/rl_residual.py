@@ -16,14 +16,19 @@ skips the runs already in it; ``"completed_seeds"`` lists the seeds finished wit
 variant, ``"seeds_pending"`` the rest. Writes ``rl_residual.json`` and ``rl_residual.png``
 (learning curves: mean over seeds with a 95 % t-interval band). Progress on stderr.
 
-Usage (one command; about 60-70 min of one core with the defaults, see docs/downstream.md):
+Usage (defaults: 6 seeds × 2 variants × 30,000 steps; 12 runs of 10-11 min each at a load
+of about 7 on the shared 2-core machine, see docs/downstream.md):
     nohup .venv/bin/python benchmarks/rl_residual.py > rl.log 2>&1 &
     .venv/bin/python benchmarks/rl_residual.py --quick      # CI: 1 seed, a few hundred steps
 Split over processes (same total compute, less wall time), then merge:
     .venv/bin/python benchmarks/rl_residual.py --seeds 0 1 2 --name rl_a &
-    .venv/bin/python benchmarks/rl_residual.py --seeds 3 4 --name rl_b &
+    .venv/bin/python benchmarks/rl_residual.py --seeds 3 4 5 --name rl_b &
     .venv/bin/python benchmarks/rl_residual.py --merge benchmarks/results/rl_a.json \
         benchmarks/results/rl_b.json
+An extra residual variant with the same seeds and budget, e.g. a declared ĝ scale instead of
+the running RMS, compared with the main result (Mann-Whitney, one figure):
+    .venv/bin/python benchmarks/rl_residual.py --variants residual --residual-scale 1.0 0.5 \
+        --name rl_residual_fixedscale --against benchmarks/results/rl_residual.json
 """
 
 from __future__ import annotations
@@ -158,7 +163,8 @@ def merge(parts: list[Path], path: Path, against_path: Path | None = None) -> di
     whole = set(completed_seeds(runs, variants))
     runs = [r for r in runs if r["seed"] in whole]
     res = {**datas[0], "complete": True, "settings": {**datas[0]["settings"],
-                                    "seeds": sorted({r["seed"] for r in runs})},
+                                    "seeds": sorted({r["seed"] for r in runs}),
+                                    "variants": list(variants)},
            "completed_seeds": completed_seeds(runs, variants),
            "seeds_pending": sorted({s for d in datas for s in d["settings"]["seeds"]}
                                    - whole),
@@ -181,9 +187,9 @@ def merge(parts: list[Path], path: Path, against_path: Path | None = None) -> di
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=5_000, help="env steps per run")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
-    ap.add_argument("--eval-every", type=int, default=1_250,
+    ap.add_argument("--steps", type=int, default=30_000, help="env steps per run")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5])
+    ap.add_argument("--eval-every", type=int, default=1_500,
                     help="env steps between deterministic evaluations")
     ap.add_argument("--quick", action="store_true",
                     help="1 seed, 250 steps, 1 s episodes (the CI variant)")
