@@ -11,23 +11,30 @@ Per seed and variant: SAC for ``--steps`` env steps; every ``--eval-every`` step
 deterministic policy is evaluated on μ = 0.45 / 0.6 / 0.9 (one 4 s episode each, the
 identifier copied from the training env). Runs are interleaved (seed 0 plain, seed 0
 residual, seed 1 ...) and the JSON is rewritten after every run (``"complete": false`` until
-the last), so an interrupted job keeps balanced, usable results; ``--resume`` skips the runs
-already in it. Writes ``rl_residual.json`` and ``rl_residual.png`` (learning curves: mean
-over seeds with a 95 % t-interval band). Progress on stderr.
+the last; the PNG too), so an interrupted job keeps balanced, usable results; ``--resume``
+skips the runs already in it; ``"completed_seeds"`` lists the seeds finished with every
+variant, ``"seeds_pending"`` the rest. Writes ``rl_residual.json`` and ``rl_residual.png``
+(learning curves: mean over seeds with a 95 % t-interval band). Progress on stderr.
 
-Usage (one command; about 60-70 min of one core with the defaults, see docs/downstream.md):
+Usage (defaults: 6 seeds × 2 variants × 30,000 steps; 12 runs of 10-11 min each at a load
+of about 7 on the shared 2-core machine, see docs/downstream.md):
     nohup .venv/bin/python benchmarks/rl_residual.py > rl.log 2>&1 &
     .venv/bin/python benchmarks/rl_residual.py --quick      # CI: 1 seed, a few hundred steps
 Split over processes (same total compute, less wall time), then merge:
     .venv/bin/python benchmarks/rl_residual.py --seeds 0 1 2 --name rl_a &
-    .venv/bin/python benchmarks/rl_residual.py --seeds 3 4 --name rl_b &
+    .venv/bin/python benchmarks/rl_residual.py --seeds 3 4 5 --name rl_b &
     .venv/bin/python benchmarks/rl_residual.py --merge benchmarks/results/rl_a.json \
         benchmarks/results/rl_b.json
+An extra residual variant with the same seeds and budget, e.g. a declared ĝ scale instead of
+the running RMS, compared with the main result (Mann-Whitney, one figure):
+    .venv/bin/python benchmarks/rl_residual.py --variants residual --residual-scale 1.0 0.5 \
+        --name rl_residual_fixedscale --against benchmarks/results/rl_residual.json
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -80,6 +87,44 @@ def summarise(runs: list[dict]) -> dict:
     return summary
 
 
+def completed_seeds(runs: list[dict], variants: tuple[str, ...] | list[str] | None = None
+                    ) -> list[int]:
+    """Seeds whose runs finished for every variant run (the balanced, usable ones)."""
+    from simgap.control.rl import VARIANTS
+
+    pairs = {(r["seed"], r["variant"]) for r in runs}
+    return sorted({s for s, _ in pairs if all((s, v) in pairs for v in variants or VARIANTS)})
+
+
+def against(runs: list[dict], main_path: Path, out_png: Path) -> dict:
+    """Compare this job's ``residual`` runs (e.g. a declared ĝ scale) with a main result.
+
+    Two-sided Mann-Whitney U tests of the final returns against the main JSON's ``plain``
+    and ``residual`` runs; writes one figure with the three variants (this job's runs drawn
+    as ``residual_fixed``). The main result must have the same steps per run.
+    """
+    from scipy import stats
+
+    from simgap.control.figures import rl_curves_figure
+
+    main = json.loads(main_path.read_text())
+    mine = [r for r in runs if r["variant"] == "residual"]
+    steps = {r["total_steps"] for r in mine} | {r["total_steps"] for r in main["runs"]}
+    if len(steps) != 1:
+        sys.exit(f"--against: {main_path} has other steps per run")
+    finals = [r["final_return_mean"] for r in mine]
+    out: dict = {"file": str(main_path), "seeds": sorted(r["seed"] for r in mine),
+                 "main_seeds": main.get("completed_seeds", main["settings"]["seeds"])}
+    for variant in ("plain", "residual"):
+        other = [r["final_return_mean"] for r in main["runs"] if r["variant"] == variant]
+        if len(other) >= 2 and len(finals) >= 2:
+            out[f"mannwhitney_p_vs_{variant}"] = float(
+                stats.mannwhitneyu(finals, other, alternative="two-sided").pvalue)
+    rl_curves_figure(main["runs"] + [{**r, "variant": "residual_fixed"} for r in mine],
+                     steps.pop(), out_png, overwrite=True)
+    return out
+
+
 def write_json(path: Path, data: dict) -> None:
     """Write ``data`` to ``path`` through a temporary file (never a half-written JSON)."""
     tmp = path.with_suffix(".json.tmp")
@@ -95,7 +140,7 @@ def load_string() -> str:
         return "unknown"
 
 
-def merge(parts: list[Path], path: Path) -> dict:
+def merge(parts: list[Path], path: Path, against_path: Path | None = None) -> dict:
     """Combine the runs of JSON outputs with equal settings but for their seeds.
 
     Parts may be interrupted runs (``"complete": false``); seeds that did not finish with
@@ -114,10 +159,15 @@ def merge(parts: list[Path], path: Path) -> dict:
     from simgap.control.rl import VARIANTS
 
     # an interrupted part may end with half a seed: keep only seeds run with every variant
-    whole = {s for s, _ in pairs if all((s, v) in pairs for v in VARIANTS)}
+    variants = datas[0]["settings"].get("variants", VARIANTS)
+    whole = set(completed_seeds(runs, variants))
     runs = [r for r in runs if r["seed"] in whole]
     res = {**datas[0], "complete": True, "settings": {**datas[0]["settings"],
-                                    "seeds": sorted({r["seed"] for r in runs})},
+                                    "seeds": sorted({r["seed"] for r in runs}),
+                                    "variants": list(variants)},
+           "completed_seeds": completed_seeds(runs, variants),
+           "seeds_pending": sorted({s for d in datas for s in d["settings"]["seeds"]}
+                                   - whole),
            "runs": runs, "summary": summarise(runs),
            "wall_s_total": sum(d["wall_s_total"] for d in datas),
            "wall_s_note": "sum over the merged parts (processes that ran at the same time)",
@@ -125,18 +175,21 @@ def merge(parts: list[Path], path: Path) -> dict:
                             "wall_s": d["wall_s_total"], "load_at_start": d["load_at_start"],
                             "load_at_end": d["load_at_end"]} for p, d in zip(parts, datas,
                                                                            strict=True)]}
+    if against_path is not None:
+        res["summary"]["against"] = against(runs, against_path, path.with_suffix(".png"))
+    else:
+        rl_curves_figure(runs, res["settings"]["steps_per_run"], path.with_suffix(".png"),
+                         overwrite=True)
     write_json(path, res)
-    rl_curves_figure(runs, res["settings"]["steps_per_run"], path.with_suffix(".png"),
-                     overwrite=True)
     print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
     return res
 
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=5_000, help="env steps per run")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
-    ap.add_argument("--eval-every", type=int, default=1_250,
+    ap.add_argument("--steps", type=int, default=30_000, help="env steps per run")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5])
+    ap.add_argument("--eval-every", type=int, default=1_500,
                     help="env steps between deterministic evaluations")
     ap.add_argument("--quick", action="store_true",
                     help="1 seed, 250 steps, 1 s episodes (the CI variant)")
@@ -144,6 +197,14 @@ def main(argv: list[str] | None = None) -> dict:
                     help="keep the runs already in the output JSON (same settings)")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--name", default=None, help="output stem (default rl_residual)")
+    ap.add_argument("--residual-scale", type=float, nargs="+", default=None,
+                    help="a declared ĝ scale for the residual variant (m/s² and rad/s², one "
+                         "value or one per component) instead of the running RMS")
+    ap.add_argument("--variants", nargs="+", choices=["plain", "residual"],
+                    default=["plain", "residual"], help="variants to run (default both)")
+    ap.add_argument("--against", type=Path, default=None,
+                    help="a main result JSON: compare this job's residual runs with its plain "
+                         "and residual runs (Mann-Whitney) and draw all three in the PNG")
     ap.add_argument("--merge", type=Path, nargs="+", default=None,
                     help="combine complete JSON outputs of the same settings run for different "
                          "seeds (e.g. two processes) into --name")
@@ -157,6 +218,10 @@ def main(argv: list[str] | None = None) -> dict:
     else:
         steps, seeds, every = args.steps, args.seeds, args.eval_every
         task, eval_mus = RLTask(), (0.45, 0.6, 0.9)
+    if args.residual_scale is not None:
+        declared = args.residual_scale[0] if len(args.residual_scale) == 1 \
+            else tuple(args.residual_scale)
+        task = dataclasses.replace(task, residual_scale=declared)
     name = args.name or ("rl_residual_quick" if args.quick else "rl_residual")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / f"{name}.json"
@@ -165,11 +230,16 @@ def main(argv: list[str] | None = None) -> dict:
                              "learning_starts 500, torch 1 thread",
                 "env_id": RL_TASK_ID, "steps_per_run": steps, "seeds": seeds,
                 "eval_every": every, "eval_mus": list(eval_mus),
+                "variants": [v for v in VARIANTS if v in args.variants],
                 "task": {**task.__dict__, "mu_range": list(task.mu_range)},
                 "observation_scale": "ResidualObservation scale='running' (per-component "
-                                     "cumulative RMS of ĝ), clip ±10"}
+                                     "cumulative RMS of ĝ), clip ±10"
+                if task.residual_scale == "running" else
+                f"ResidualObservation declared scale {task.residual_scale} (m/s², rad/s²), "
+                "clip ±10"}
+    settings = json.loads(json.dumps(settings))  # as read back by --resume (lists)
     if args.merge:
-        return merge(args.merge, path)
+        return merge(args.merge, path, args.against)
     runs: list[dict] = []
     if args.resume and path.exists():
         old = json.loads(path.read_text())
@@ -178,7 +248,8 @@ def main(argv: list[str] | None = None) -> dict:
                      "--resume")
         runs = old["runs"]
     done = {(r["variant"], r["seed"]) for r in runs}
-    todo = [(s, v) for s in seeds for v in VARIANTS if (v, s) not in done]
+    variants = settings["variants"]
+    todo = [(s, v) for s in seeds for v in variants if (v, s) not in done]
     started = time.time()
     wall_before = sum(r.get("wall_s", 0.0) for r in runs)
     load_start = load_string()
@@ -188,7 +259,10 @@ def main(argv: list[str] | None = None) -> dict:
     def result(complete: bool) -> dict:
         return {"benchmark": "rl_residual", "complete": complete, "settings": settings,
                 "monitor_info_keywords": list(RL_INFO_KEYWORDS),
-                "summary": summarise(runs) if runs else {}, "runs": runs,
+                "summary": summarise(runs) if runs else {},
+                "completed_seeds": completed_seeds(runs, variants),
+                "seeds_pending": [s for s in seeds if s not in completed_seeds(runs, variants)],
+                "runs": runs,
                 "wall_s_total": wall_before + time.time() - started,
                 "load_at_start": load_start, "load_at_end": load_string(),
                 "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
@@ -210,9 +284,13 @@ def main(argv: list[str] | None = None) -> dict:
               f"{run['final_return_mean']:.3f} (base {np.mean(run['base_returns']):.3f}), "
               f"{run['wall_s']:.0f} s", file=sys.stderr, flush=True)
         write_json(path, result(complete=False))
+        rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
     res = result(complete=True)
+    if args.against is not None:
+        res["summary"]["against"] = against(runs, args.against, args.out / f"{name}.png")
+    else:
+        rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
     write_json(path, res)
-    rl_curves_figure(runs, steps, args.out / f"{name}.png", overwrite=True)
     print(json.dumps({"summary": res["summary"], "json": str(path)}, indent=1))
     return res
 

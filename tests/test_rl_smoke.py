@@ -105,4 +105,14 @@ def test_rl_benchmark_quick_variant(tmp_path):
                        str(tmp_path / "b.json"), "--out", str(tmp_path), "--name", "m"])
     assert merged["settings"]["seeds"] == [0, 1] and len(merged["runs"]) == 4
     assert merged["summary"]["plain"]["seeds"] == [0, 1]
+    assert merged["completed_seeds"] == [0, 1] and merged["seeds_pending"] == [2]
     assert (tmp_path / "m.png").exists()
+    # an extra residual-only variant with a declared ĝ scale, compared with the main result
+    fixed = mod.main(["--quick", "--out", str(tmp_path), "--name", "fx", "--variants",
+                      "residual", "--residual-scale", "1.0", "0.5", "--against",
+                      str(tmp_path / "rl_residual_quick.json")])
+    assert [r["variant"] for r in fixed["runs"]] == ["residual"]
+    assert fixed["completed_seeds"] == [0] and fixed["seeds_pending"] == []
+    assert fixed["settings"]["task"]["residual_scale"] == [1.0, 0.5]
+    assert fixed["summary"]["against"]["seeds"] == [0] and "plain" not in fixed["summary"]
+    assert (tmp_path / "fx.png").stat().st_size > 10_000

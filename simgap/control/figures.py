@@ -30,7 +30,8 @@ def rl_curves_figure(runs: list[dict], total: int, path: Path, *,
 
     plt = _pyplot()
     styles = (("plain", "tab:gray", "plain observation"),
-              ("residual", "tab:blue", "+ scaled ĝ (ResidualObservation)"))
+              ("residual", "tab:blue", "+ scaled ĝ (ResidualObservation)"),
+              ("residual_fixed", "tab:orange", "+ ĝ, fixed declared scale"))
     has_evals = any(run.get("evals") for run in runs)
     fig, axes = plt.subplots(1, 2 if has_evals else 1, figsize=(12 if has_evals else 7, 4.2),
                              squeeze=False)
