@@ -394,13 +394,16 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         fitter = Fitter(system, res, train_fraction, mask=mask, segments=segment)
     except ValueError as err:
         raise RecordingError(f"{rec.name}: {err}") from None
-    structure = structure_tests(system, res, fitter)
-    level = ALPHA / max(len(stats), 1)
-    stats = [dataclasses.replace(s, significant=s.significant and g.significant(level))
-             for s, g in zip(stats, structure, strict=True)]
     candidates = [Term(e, j, ch) for e, j, ch in system.candidates(res)]
     sel = fitter.select(candidates)
     entries, preds, fitted, sse_all = _effect_entries(fitter, sel, system)
+    structure = structure_tests(system, res, fitter)
+    level = ALPHA / max(len(stats), 1)
+    named_on = {e["channel"] for e in entries}
+    whole = any(ch not in system.channels for ch in named_on)   # arm/vehicle scope
+    stats = [dataclasses.replace(s, significant=s.significant and (
+        g.significant(level) or whole or s.channel in named_on))
+        for s, g in zip(stats, structure, strict=True)]
     sig_idx = [i for i, s in enumerate(stats) if s.significant] or list(range(fitter.c))
     r_te = fitter.r[fitter.test] * fitter.w
     resid_te = r_te - sel.fit.total(fitter.n, fitter.c)[fitter.test] * fitter.w
@@ -532,7 +535,11 @@ def structure_tests(system: Any, prepared: Prepared, fitter: Fitter) -> list[Str
     jittered clock or a controller's torque noise can lift the residual far above a white
     floor (measured: 7x for 2 % AR(1) noise); none of them is a function of where the
     system is, so none of them is called a mismatch. A named effect makes the recording
-    significant on its own (it passed its own held-out tests).
+    significant on its own (it passed its own held-out tests), and so is a channel above
+    its floor where one is named (the effect's test is a structure test with a physical,
+    lower-dimensional basis: on the 8 s race-car slice the binned means remove 77 % of
+    the front axle's held-out residual but, with 19 effective samples, reach only
+    p = 0.01 against ten bins).
 
     Rows: the fitter's usable fit and outer test rows, per channel where it is unmasked.
     Variables: :meth:`locate_variables` without derivatives (:data:`DERIVED_VARIABLES`

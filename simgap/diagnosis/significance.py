@@ -218,7 +218,7 @@ def likelihood_ratio(e0: np.ndarray, e1: np.ndarray, dof: int) -> LikelihoodRati
 
 
 #: Quantile bins of one operating-point variable in :func:`structure_test`.
-STRUCTURE_BINS = 10
+STRUCTURE_BINS = 8
 
 
 @dataclass(frozen=True)
