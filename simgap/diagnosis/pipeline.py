@@ -399,11 +399,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
     entries, preds, fitted, sse_all = _effect_entries(fitter, sel, system)
     structure = structure_tests(system, res, fitter)
     level = ALPHA / max(len(stats), 1)
-    named_on = {e["channel"] for e in entries}
-    whole = any(ch not in system.channels for ch in named_on)   # arm/vehicle scope
-    stats = [dataclasses.replace(s, significant=s.significant and (
-        g.significant(level) or whole or s.channel in named_on))
-        for s, g in zip(stats, structure, strict=True)]
+    mismatch = bool(entries) or any(s.significant and g.significant(level)
+                                    for s, g in zip(stats, structure, strict=True))
+    stats = [dataclasses.replace(s, significant=s.significant and mismatch) for s in stats]
     sig_idx = [i for i, s in enumerate(stats) if s.significant] or list(range(fitter.c))
     r_te = fitter.r[fitter.test] * fitter.w
     resid_te = r_te - sel.fit.total(fitter.n, fitter.c)[fitter.test] * fitter.w
@@ -524,30 +522,41 @@ def structure_tests(system: Any, prepared: Prepared, fitter: Fitter) -> list[Str
     """Per channel: whether the residual is a function of the operating point, held out.
 
     The mismatch test (issue 13, "significance as a statistical test with an honest
-    floor"). A channel is significant when its residual RMS exceeds the propagated noise
-    floor by :data:`simgap.diagnosis.locate.SIGNIFICANCE` (the floor is itself estimated:
-    the factor is its allowance, not an effect size) **and** the residual's dependence on
-    the operating point passes :func:`.significance.structure_test` at ``ALPHA`` shared by
-    the channels: binned means of each position/velocity-type variable fitted on the fit
-    part predict the outer test part better than zero, by a held-out likelihood ratio with
-    N/τ effective samples whose variance is the error left (model-structure error and
-    whatever the noise really is), not the sensor-noise floor. Coloured sensor noise, a
-    jittered clock or a controller's torque noise can lift the residual far above a white
-    floor (measured: 7x for 2 % AR(1) noise); none of them is a function of where the
-    system is, so none of them is called a mismatch. A named effect makes the recording
-    significant on its own (it passed its own held-out tests), and so is a channel above
-    its floor where one is named (the effect's test is a structure test with a physical,
-    lower-dimensional basis: on the 8 s race-car slice the binned means remove 77 % of
-    the front axle's held-out residual but, with 19 effective samples, reach only
-    p = 0.01 against ten bins).
+    floor"). A recording has a mismatch when an effect is named (it passed its own
+    held-out tests) or when some channel's residual RMS exceeds the propagated noise floor
+    by :data:`simgap.diagnosis.locate.SIGNIFICANCE` (the floor is itself estimated: the
+    factor is its allowance, not an effect size) **and** that residual's dependence on the
+    operating point passes :func:`.significance.structure_test` at ``ALPHA`` shared by the
+    channels: binned means of each variable fitted on the fit part predict the outer test
+    part better than zero, by a held-out likelihood ratio with N/τ effective samples whose
+    variance is the error left (model-structure error and whatever the noise really is),
+    not the sensor-noise floor. Coloured sensor noise, a jittered clock or a controller's
+    torque noise can lift the residual far above a white floor (measured: 7x for 2 %
+    AR(1) noise); none of them is a function of where the system is, so none of them
+    makes a mismatch. Once a mismatch is established, each channel above its floor is
+    flagged and located as before: the structure test has little power on a channel
+    whose residual is a dynamic effect of few effective samples (a tire's relaxation lag
+    on the rear axle of a 20 s log: 11x its floor, 19 effective held-out samples, p = 1),
+    and leaving such a channel out would hide it from the unexplained share.
 
     Rows: the fitter's usable fit and outer test rows, per channel where it is unmasked.
-    Variables: :meth:`locate_variables` without derivatives (:data:`DERIVED_VARIABLES`
-    and the system's ``derivative_names``), which share the residual's noise.
+    Variables: :meth:`locate_variables` without derivatives of the states
+    (:data:`DERIVED_VARIABLES` and the system's ``derivative_names``), which share the
+    residual's differentiated noise, plus the rate of each logged input (the equation's
+    filter's derivative of it): the residual holds the input's error filtered, never
+    differentiated, and a filtered noise is uncorrelated with its own derivative at the
+    same instant, while dynamic effects the states alone miss (a tire's relaxation lag, an
+    input delay) are functions of it (measured: a 1.5 m relaxation length left the rear
+    axle's 11x-floor residual untested by the states, p = 1).
     """
     exclude = set(system.derivative_names) | set(DERIVED_VARIABLES)
     variables = {k: v for k, (v, _) in system.locate_variables(prepared).items()
                  if k not in exclude}
+    names = tuple(getattr(getattr(system, "columns", None), "u", ()) or ())
+    if prepared.inputs is not None and len(names) == prepared.inputs.shape[1]:
+        rates = prepared.smoother(np.asarray(prepared.inputs, dtype=np.float64), 1)
+        variables.update({f"d{k}/dt": rates[:, j] for j, k in enumerate(names)
+                          if np.ptp(rates[:, j]) > 0})
     mask = np.asarray(fitter.mask) > 0
     out = []
     for c in range(fitter.c):
