@@ -16,7 +16,8 @@ This measures today's pipeline; it is the table issue 13 asks to fix, not a clai
 passes.
 
     .venv/bin/python benchmarks/diagnosis_artefacts.py [--seeds 3] [--clean 3] \
-        [--effects coulomb_friction,spring] [--artefacts coarse_100hz] [--out F.json]
+        [--effects coulomb_friction,spring] [--artefacts coarse_100hz] [--out F.json] \
+        [--clean-only]
 """
 
 from __future__ import annotations
@@ -129,6 +130,8 @@ def main() -> None:
     ap.add_argument("--effects", default=",".join(RANGES))
     ap.add_argument("--artefacts", default=",".join(ARTEFACTS))
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--clean-only", action="store_true",
+                    help="only the clean recordings (false claims), no injected effects")
     args = ap.parse_args()
     effects = [e for e in args.effects.split(",") if e]
     arts = [a for a in args.artefacts.split(",") if a]
@@ -141,11 +144,12 @@ def main() -> None:
 
     for art in arts:
         if ARTEFACTS[art].scenario is not None:
-            r, c = _scenario_rows(art, effects, args.seeds, args.clean, log)
+            r, c = _scenario_rows(art, effects, 0 if args.clean_only else args.seeds,
+                                  args.clean, log)
             rows += r
             clean += c
             continue
-        for name in effects:
+        for name in ([] if args.clean_only else effects):
             model = model_of(name)
             if ARTEFACTS[art].needs_positions and not PAIRS[model]:
                 continue
@@ -162,6 +166,9 @@ def main() -> None:
             for seed in range(args.clean):
                 res = _case([], model, 500 + seed, art)
                 clean.append({"artefact": art, "model": model, "seed": seed, **res})
+                print(f"[{time.perf_counter() - t0:7.1f} s] {art} clean {model} seed {seed}: "
+                      f"{'error' if 'error' in res else res['found'] or res['significant']}",
+                      file=sys.stderr)
     summary = summarise(rows, clean, arts)
     out = {"seeds": args.seeds, "tolerance": TOLERANCE, "summary": summary, "rows": rows,
            "clean": clean, "seconds": time.perf_counter() - t0}

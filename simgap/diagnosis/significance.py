@@ -215,3 +215,103 @@ def likelihood_ratio(e0: np.ndarray, e1: np.ndarray, dof: int) -> LikelihoodRati
     return LikelihoodRatio(statistic=float(stat), p_value=p, dof=dof,
                            effective_samples=tuple(n_effs), shares=tuple(shares),
                            share_removed=share, testable=True)
+
+
+#: Quantile bins of one operating-point variable in :func:`structure_test`.
+STRUCTURE_BINS = 8
+
+
+@dataclass(frozen=True)
+class StructureTest:
+    """Does a channel's residual depend on the operating point? Tested on held-out rows.
+
+    Attributes:
+        p_value: smallest per-variable p-value times the number of variables tried
+            (Bonferroni), capped at 1; nan when it cannot be tested.
+        statistic: the likelihood-ratio statistic of that variable.
+        dof: its degrees of freedom (bins whose mean was fitted).
+        variable: the variable whose binned means predict the held-out residual best.
+        share_removed: share of the held-out residual's mean square those means remove
+            (effect size; may be < 0).
+        effective_samples: n_eff of that variable's held-out error (N/τ).
+        testable: False when no variable could be tested.
+        reason: why, when ``testable`` is False.
+    """
+
+    p_value: float
+    statistic: float
+    dof: int
+    variable: str | None
+    share_removed: float
+    effective_samples: float
+    testable: bool
+    reason: str = ""
+
+    def significant(self, alpha: float) -> bool:
+        """Whether the residual's dependence on the operating point is significant."""
+        return bool(self.testable and self.p_value < alpha and self.share_removed > 0)
+
+
+def structure_test(residual: np.ndarray, variables: dict[str, np.ndarray],
+                   fit_rows: np.ndarray, test_rows: np.ndarray,
+                   bins: int = STRUCTURE_BINS) -> StructureTest:
+    """Test whether one channel's residual is a function of the operating point.
+
+    The nominal model says the residual is measurement error, whatever its spectrum: zero
+    mean at every operating point. A mismatch is physics: a function of where the system
+    is (friction of the velocity, a spring of the position, saturation of a slip angle).
+    Coloured sensor noise, interpolation errors of jittered stamps or a controller's
+    torque noise can make the residual many times the white-noise floor, yet they are not
+    predictable from the operating point on data the prediction was not made from. So,
+    per variable x: the residual's means in ``bins`` quantile bins of x are fitted on
+    ``fit_rows`` and predict the residual on ``test_rows``; the held-out likelihood ratio
+    of that prediction over "zero" (:func:`likelihood_ratio`: the variance is the error
+    left, so the floor is the residual's own structure and noise, never an assumed sensor
+    noise; N/τ effective samples; χ² with one degree of freedom per bin) gives a p-value;
+    the smallest over the variables, times their number, is the channel's.
+
+    Variables must not share the residual's measurement error: an acceleration estimated
+    from the same noisy velocity as the residual predicts its noise (errors in variables);
+    the caller passes positions, velocities and other undifferentiated quantities only.
+
+    Args:
+        residual: one channel's residual on the grid (N,), channel units.
+        variables: name -> values on the grid (N,), any units.
+        fit_rows: rows whose bin means are fitted.
+        test_rows: held-out rows they are tested on.
+        bins: quantile bins per variable.
+
+    Returns:
+        The :class:`StructureTest`.
+    """
+    r = np.asarray(residual, dtype=np.float64)
+    fit_rows, test_rows = np.asarray(fit_rows), np.asarray(test_rows)
+    best: LikelihoodRatio | None = None
+    best_name, tried = None, 0
+    for name, x in variables.items():
+        x = np.asarray(x, dtype=np.float64)
+        if fit_rows.size < 2 * bins or test_rows.size == 0 or np.ptp(x[fit_rows]) == 0:
+            continue
+        edges = np.unique(np.quantile(x[fit_rows], np.linspace(0.0, 1.0, bins + 1)))
+        if edges.size < 3:
+            continue
+        nb = edges.size - 1
+        k_fit = np.clip(np.searchsorted(edges, x[fit_rows], side="right") - 1, 0, nb - 1)
+        k_test = np.clip(np.searchsorted(edges, x[test_rows], side="right") - 1, 0, nb - 1)
+        count = np.bincount(k_fit, minlength=nb)
+        means = np.bincount(k_fit, weights=r[fit_rows], minlength=nb) / np.maximum(count, 1)
+        e0 = r[test_rows]
+        g = likelihood_ratio(e0, e0 - means[k_test], dof=nb)
+        tried += 1
+        if g.testable and (best is None or g.p_value < best.p_value
+                           or (g.p_value == best.p_value and g.statistic > best.statistic)):
+            best, best_name = g, name
+    if best is None:
+        return StructureTest(p_value=float("nan"), statistic=float("nan"), dof=0,
+                             variable=None, share_removed=0.0, effective_samples=0.0,
+                             testable=False,
+                             reason="no operating-point variable could be tested held out")
+    return StructureTest(p_value=float(min(1.0, best.p_value * tried)),
+                         statistic=best.statistic, dof=best.dof, variable=best_name,
+                         share_removed=best.share_removed,
+                         effective_samples=float(best.effective_samples[0]), testable=True)
