@@ -546,13 +546,19 @@ def _ratio_report(effect, lin, nl, cov, context):
     return ({"ratio": float(1.0 + lin[0])}, {"ratio": stderr_of(cov, 0)}, {"ratio": "-"})
 
 
+def _ratio_coords(params, context):
+    """Fit coordinate of a reported ratio: ratio − 1 (inverse of :func:`_ratio_report`)."""
+    return (params["ratio"] - 1.0,), ()
+
+
 def _ratio_fit(scope: str, lower: float, upper: float, fn: Any, *,
                uses_derivatives: bool = False, symmetric_with: tuple[str, ...] = ()
                ) -> FitSpec:
     """A ratio fitted as ratio − 1 within [lower, upper] and reported as the ratio."""
     return FitSpec(scope=scope, lin=("ratio_minus_1",), lin_units=("-",), lin_lower=(lower,),
                    lin_upper=(upper,), uses_derivatives=uses_derivatives, fn=fn,
-                   to_report=_ratio_report, symmetric_with=symmetric_with)
+                   to_report=_ratio_report, from_report=_ratio_coords,
+                   symmetric_with=symmetric_with)
 
 
 #: Mass, yaw inertia and every tire force scaled by one factor leave the motion unchanged:

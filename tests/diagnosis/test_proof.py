@@ -21,6 +21,11 @@ FULL = {"manipulator2dof": 20.0, "bicycle": 40.0}
 #: (measured: 8 s recordings give up to 65 % error at vs = 0.075, 20 s stay below 19 %).
 LONGER = {"stribeck_friction": 20.0}
 
+#: Where even the injected effect at its true parameters lowers the held-out rollout error
+#: less than 2x (an effect little above the noise floor, e.g. quadratic drag c = 0.0101 at
+#: joint 1: exact model 1.73x), the fitted model must reach this share of that ceiling.
+CEILING_SHARE = 0.9
+
 
 def _check_single(name: str, seed: int, durations: dict[str, float]) -> None:
     inj = draw(name, np.random.default_rng(1000 + seed))
@@ -30,7 +35,9 @@ def _check_single(name: str, seed: int, durations: dict[str, float]) -> None:
     assert res.named, f"{name} {inj} not named; found {res.found}"
     assert res.param_error <= TOLERANCE, f"{name} {inj}: parameter error {res.param_error:.2f}"
     assert not res.extra, f"{name}: extra effects named {res.extra}"
-    assert res.improvement >= 2.0, f"{name}: rollout error only {res.improvement:.2f}× lower"
+    need = CEILING_SHARE * res.ceiling if res.ceiling < 2.0 else 2.0  # NaN ceiling: 2
+    assert res.improvement >= need, (f"{name}: rollout error only {res.improvement:.2f}× lower "
+                                     f"(true parameters: {res.ceiling:.2f}×)")
 
 
 @pytest.mark.parametrize("name", sorted(RANGES))
