@@ -1,5 +1,6 @@
 """Concealed-effect proof (issue 5): every vocabulary effect named blind, clean recordings
-stay clean, two effects at once, rollout error drops ≥ 2×.
+stay clean, two effects at once, rollout error drops ≥ 2× (a single effect whose exact
+model cannot halve it, being little above the noise floor: 90 % of what the exact model gets).
 
 CI runs a quick variant (short recordings, 2 seeds per effect); the full table (longer
 recordings, 5 seeds) runs with SIMGAP_SLOW=1 and in benchmarks/diagnosis_proof.py.
