@@ -220,13 +220,19 @@ def determination(jacobian: np.ndarray, names: Sequence[str], which: Sequence[st
     norms = np.linalg.norm(j, axis=0)
     safe = np.where(norms > 0, norms, 1.0)
     scaled = j / safe                       # unit columns: rounding/units cannot matter
-    info_inv = np.linalg.pinv(scaled.T @ scaled)
-    diag = np.clip(np.diag(info_inv)[idx], 0.0, None)
-    # [(ĴᵀĴ)⁻¹]ᵢᵢ = 1/(1 − R²ᵢ) for a unit column: the share of its information kept
-    retained = np.where((diag > 0) & (norms[idx] > 0), 1.0 / np.maximum(diag, 1e-300), 0.0)
-    retained = np.clip(retained, 0.0, 1.0)
-    se = np.where(norms[idx] > 0, noise_std * np.sqrt(diag) / safe[idx], np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(se > 0, np.abs(v[idx]) / se, np.inf)
+    retained = np.zeros(len(idx))
+    for n, i in enumerate(idx):
+        if norms[i] == 0.0:
+            continue
+        others = np.delete(scaled, i, axis=1)
+        col = scaled[:, i]
+        if others.shape[1]:
+            col = col - others @ np.linalg.lstsq(others, col, rcond=None)[0]
+        # [(ĴᵀĴ)⁻¹]ᵢᵢ = 1/‖(I − P_others)Ĵᵢ‖² = 1/(1 − R²ᵢ) for a unit column
+        retained[n] = min(float(col @ col), 1.0)
+    se = np.full(len(idx), np.inf)
+    ok = retained > 0
+    se[ok] = noise_std / (np.sqrt(retained[ok]) * norms[idx][ok])
+    z = np.abs(v[idx]) / se
     return Determination(names=tuple(which), standard_error=se, retained=retained,
-                         z=np.nan_to_num(z, nan=0.0))
+                         z=z)
