@@ -47,9 +47,11 @@ explain the same validation residual is noise, not evidence.
 Two structural checks run on each round's pick before it is accepted
 (:meth:`Fitter._structural`): a constant on data that move one way only, and an effect with
 declared symmetry partners (``FitSpec.symmetric_with``: a vehicle's mass or yaw-inertia
-ratio against both axles' tire-law scales) that is undetermined with the partners fitted
-beside it. A term failing either stays in the fit as the identifiable combination it
-carries (so that no other effect stands in for it) but is not named
+ratio against both axles' tire-law scales) that the data do not tell from the nominal with
+the partners fitted beside it (a Wald test on its standard error from the block's joint
+information, :func:`.identifiability.determination`). A term failing either stays in the
+fit as the identifiable combination it carries (so that no other effect stands in for it)
+but is not named
 (:attr:`Fitter.combinations`, decision "not identifiable"). Effects declared for all
 channels at once (``EffectSpec.all_channels``: one road μ) are also tried on all channels
 together, so that a vehicle-scope term gaining on both axles with one parameter does not
