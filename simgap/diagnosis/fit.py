@@ -47,9 +47,11 @@ explain the same validation residual is noise, not evidence.
 Two structural checks run on each round's pick before it is accepted
 (:meth:`Fitter._structural`): a constant on data that move one way only, and an effect with
 declared symmetry partners (``FitSpec.symmetric_with``: a vehicle's mass or yaw-inertia
-ratio against both axles' tire-law scales) that is undetermined with the partners fitted
-beside it. A term failing either stays in the fit as the identifiable combination it
-carries (so that no other effect stands in for it) but is not named
+ratio against both axles' tire-law scales) that the data do not tell from the nominal with
+the partners fitted beside it (a Wald test on its standard error from the block's joint
+information, :func:`.identifiability.determination`). A term failing either stays in the
+fit as the identifiable combination it carries (so that no other effect stands in for it)
+but is not named
 (:attr:`Fitter.combinations`, decision "not identifiable"). Effects declared for all
 channels at once (``EffectSpec.all_channels``: one road μ) are also tried on all channels
 together, so that a vehicle-scope term gaining on both axles with one parameter does not
@@ -76,6 +78,7 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
+from scipy.stats import norm
 
 from simgap.diagnosis import identifiability, validation
 from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect, report_params
@@ -95,9 +98,11 @@ TRAIN_FRACTION = 0.7
 FLIP_Z = 3.0
 #: An operating rate counts as taking both signs when each holds this share of the rows.
 FLIP_SIDE_SHARE = 0.1
-#: An effect with symmetry partners (``symmetric_with``) is identifiable when, refitted with
-#: them freed, its parameters stay this many standard errors from the nominal (0).
-SYMMETRY_Z = 3.0
+#: An effect with symmetry partners (``symmetric_with``) is named only when, refitted with
+#: them freed, its parameters are told from the nominal (0) by a two-sided Wald test at
+#: this level (the selection's own :data:`ALPHA`), with the standard error from the joint
+#: information of the whole block (:func:`.identifiability.determination`).
+SYMMETRY_ALPHA = ALPHA
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
@@ -936,12 +941,12 @@ class Fitter:
         * An effect with ``symmetric_with`` partners (a vehicle's mass or yaw-inertia
           ratio: mass, yaw inertia and all tire forces scaled together leave the motion
           unchanged): refitted with the partners (both axles' cornering-stiffness ratios)
-          freed beside it, it is undetermined when the joint check
-          (:func:`.identifiability.analyse`) finds a direction carrying it undetermined,
-          or its parameters end on a plausibility limit or within :data:`SYMMETRY_Z`
-          standard errors of the nominal (steady manoeuvres fix only the ratio of inertia
-          to tire forces; the regressors carry the residual's own noise, so the fit slides
-          along the symmetry and the value-based test of ``analyse`` alone can miss it).
+          freed beside it, it is undetermined unless the data tell it from the nominal
+          with them free (:meth:`_determined`: Wald test on its standard error from the
+          block's joint information, refit off the limits and of the named sign). With
+          the yaw inertia fixed, mass and both tire laws scaled together are no symmetry
+          (the yaw equation sees Iz·dr/dt), so yaw acceleration in the data decides;
+          steady turns have none.
           The combination (its value relative to the nominal tire laws) is reported.
         """
         out: dict[tuple, str] = {}
@@ -965,24 +970,9 @@ class Fitter:
                 continue
             missing = [c for c in partners if c.key not in {u.key for u in fit.terms}]
             both = self.fit_new(fit, missing, full=False) if missing else fit
-            joint = self._joint(both)
-            ana = joint.get("_analysis")
-            mine = {f"{t.label}:{p}" for p in (*t.effect.lin, *t.effect.nl)}
-            combos = [] if ana is None else [c for c in ana.unidentifiable
-                                             if mine & set(c.weights)]
-            # its own parameters with the partners freed: on a limit, or within SYMMETRY_Z
-            # standard errors of the nominal (the partners took it over)
-            k = both.terms.index(t)
-            sl = both.slices()[k]
-            vals = np.concatenate([both.lin[k], both.nl[k]])
-            se = np.sqrt(np.clip(np.diag(both.cov)[sl], 0.0, None) * both.tau)
-            lost = t.label in self.at_limit(both) or bool(
-                np.all(np.abs(vals) < SYMMETRY_Z * se))
-            if combos or lost:
-                what = combos[0].describe() if combos else (
-                    f"its fit moves to {_ratio_text(both, t)} ± "
-                    f"{', '.join(f'{x:.2g}' for x in se)}"
-                    + (" (a plausibility limit)" if t.label in self.at_limit(both) else ""))
+            verdict = self._determined(both, t, fit)
+            if verdict:
+                what = f"its fit moves to {_ratio_text(both, t)}: {verdict}"
                 out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
                               + " and ".join(f"{p.effect.label} at {p.channel}"
                                              for p in partners)
@@ -992,6 +982,40 @@ class Fitter:
                               f"{t.effect.label} {_ratio_text(fit, t)} relative to the "
                               "nominal tire laws")
         return out
+
+    def _determined(self, both: FitResult, term: Term, named: FitResult) -> str:
+        """Why ``term`` is not determined with its symmetry partners freed ("" if it is).
+
+        ``both`` holds the term with its partners fitted beside it, ``named`` the fit it was
+        picked in. The term is determined when, with the partners free, its own parameters
+        keep some information (not collinear with theirs: :data:`.identifiability.REL_TOL`),
+        the refit stays off the plausibility limits, keeps the named sign, and tells each
+        parameter from the nominal (0) by a two-sided Wald test at :data:`SYMMETRY_ALPHA`
+        (standard error from the joint information of the whole block, noise inflated by
+        the residual's autocorrelation time; :func:`.identifiability.determination`). The
+        verdict rests on the parameter's own uncertainty, not on where along a weak
+        direction one refit happens to land.
+        """
+        k = both.terms.index(term)
+        mine = [f"{term.label}:{p}" for p in (*term.effect.lin, *term.effect.nl)]
+        det = identifiability.determination(both.jac, both.param_names(), mine,
+                                            both.values(), noise_std=float(np.sqrt(both.tau)))
+        z_crit = float(norm.isf(SYMMETRY_ALPHA / 2.0))
+        vals = np.concatenate([both.lin[k], both.nl[k]])
+        i = named.terms.index(term)
+        ref = np.concatenate([named.lin[i], named.nl[i]])
+        se = ", ".join(f"{x:.2g}" for x in det.standard_error)
+        if np.any(det.retained < identifiability.REL_TOL**2):
+            return ("the partners take all its information (share of it kept: "
+                    f"{', '.join(f'{x:.1e}' for x in det.retained)})")
+        if term.label in self.at_limit(both):
+            return f"a plausibility limit (± {se})"
+        if np.any(np.sign(vals) * np.sign(ref) < 0):
+            return f"the opposite side of the nominal from the named value (± {se})"
+        if not det.determined(z_crit):
+            return (f"± {se}, within {z_crit:.2f} standard errors of the nominal: the data "
+                    f"cannot tell it from the nominal at level {SYMMETRY_ALPHA:g}")
+        return ""
 
     def _constant(self, term: Term, nl: np.ndarray) -> bool:
         """Whether a term is a constant offset (its only regressor constant over rows)."""

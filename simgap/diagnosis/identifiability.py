@@ -148,3 +148,91 @@ def analyse(jacobian: np.ndarray, names: Sequence[str], *, noise_std: float | No
                                       relative_error=float("inf")))
     return Identifiability(names=tuple(names), singular_values=s, condition=cond,
                            correlation=corr, unidentifiable=tuple(combos))
+
+
+@dataclass(frozen=True)
+class Determination:
+    """How well the data determine some parameters with others freed beside them.
+
+    Attributes:
+        names: the parameters tested.
+        standard_error: their standard errors with every other column freed (parameter
+            units), from the joint Fisher information (the Schur complement of the others'
+            block): √(σ²·[(JᵀJ)⁻¹]ᵢᵢ).
+        retained: share of each parameter's own information (its column's energy) that is
+            left once the others are freed, 1 − R² of its column on theirs, in [0, 1]:
+            0 on an exact symmetry, 1 when the others are orthogonal to it.
+        z: |value| / standard_error per parameter (the Wald statistic of "value = 0").
+    """
+
+    names: tuple[str, ...]
+    standard_error: np.ndarray
+    retained: np.ndarray
+    z: np.ndarray
+
+    def determined(self, z_crit: float, min_retained: float = REL_TOL**2) -> bool:
+        """Whether every parameter is told from 0 at ``z_crit`` and not lost to a symmetry.
+
+        ``min_retained`` is the information share below which the column counts as
+        numerically collinear with the others (the square of :data:`REL_TOL`, a relative
+        singular value).
+        """
+        return bool(np.all(self.retained >= min_retained) and np.all(self.z >= z_crit))
+
+
+def determination(jacobian: np.ndarray, names: Sequence[str], which: Sequence[str],
+                  values: Sequence[float], *, noise_std: float = 1.0) -> Determination:
+    """Standard errors of ``which`` with all the other parameters freed beside them.
+
+    The answer to "do the data determine θᵢ when its symmetry partners are free?" is not
+    the value a refit lands on (a weakly determined direction slides with the noise) but
+    θᵢ's marginal uncertainty with the partners free: the joint information JᵀJ inverted
+    (Fisher information, Cramér–Rao), and how much of θᵢ's own information the partners
+    take (an exact symmetry takes all of it).
+
+    Args:
+        jacobian: (N, p) derivative of the residual model w.r.t. each parameter, rows
+            whitened so that the residual noise std is ``noise_std`` (use the effective
+            noise, inflated by √τ for correlated residuals).
+        names: the p parameter names, in column order.
+        which: the names to test.
+        values: the p fitted values (parameter units), in ``names`` order.
+        noise_std: residual noise std in the Jacobian's row units.
+
+    Returns:
+        The :class:`Determination` of ``which``.
+
+    Raises:
+        DiagnosisError: on a shape mismatch, an unknown name or a non-finite Jacobian.
+    """
+    j = np.asarray(jacobian, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    if j.ndim != 2 or j.shape[1] != len(names) or v.shape != (len(names),):
+        raise DiagnosisError(f"identifiability: Jacobian of shape {j.shape} and "
+                             f"{v.shape[0] if v.ndim else 0} values do not match "
+                             f"{len(names)} parameter names")
+    if not np.all(np.isfinite(j)):
+        raise DiagnosisError("identifiability: the Jacobian holds non-finite values")
+    missing = [n for n in which if n not in names]
+    if missing:
+        raise DiagnosisError(f"identifiability: unknown parameters {missing}")
+    idx = [list(names).index(n) for n in which]
+    norms = np.linalg.norm(j, axis=0)
+    safe = np.where(norms > 0, norms, 1.0)
+    scaled = j / safe                       # unit columns: rounding/units cannot matter
+    retained = np.zeros(len(idx))
+    for n, i in enumerate(idx):
+        if norms[i] == 0.0:
+            continue
+        others = np.delete(scaled, i, axis=1)
+        col = scaled[:, i]
+        if others.shape[1]:
+            col = col - others @ np.linalg.lstsq(others, col, rcond=None)[0]
+        # [(ĴᵀĴ)⁻¹]ᵢᵢ = 1/‖(I − P_others)Ĵᵢ‖² = 1/(1 − R²ᵢ) for a unit column
+        retained[n] = min(float(col @ col), 1.0)
+    se = np.full(len(idx), np.inf)
+    ok = retained > 0
+    se[ok] = noise_std / (np.sqrt(retained[ok]) * norms[idx][ok])
+    z = np.abs(v[idx]) / se
+    return Determination(names=tuple(which), standard_error=se, retained=retained,
+                         z=z)
