@@ -75,6 +75,11 @@ LOW_INFORMATION = 0.25
 #: Share of the outer held-out rows taken as blocks spread over the operating regions (the
 #: rest is the tail, the last usable rows, which the rollout comparison needs contiguous).
 SPREAD_SHARE = 1.0 / 3.0
+#: A region (one sign of a direction variable, or the large amplitudes) holding this share
+#: of the rows before the tail must hold at least :data:`COVER_RATIO` of that share of the
+#: tail for the cut in time to be kept (:func:`tail_covers`).
+REGION_SHARE = 0.2
+COVER_RATIO = 0.25
 #: Amplitude levels of the operating regions (:func:`block_regions`).
 AMPLITUDE_LEVELS = 3
 #: Thinned rows on each side of a confirmation block left out of every part: the thinning
@@ -171,6 +176,38 @@ def block_regions(regions: np.ndarray | None, rows: np.ndarray, labels: np.ndarr
     return code * levels + level
 
 
+def tail_covers(regions: np.ndarray, early: np.ndarray, tail: np.ndarray) -> bool:
+    """Whether the last usable rows span the operating regions of the rows before them.
+
+    Row by row, on the direction variables divided by their RMS over all these rows: each
+    sign of each variable that holds at least :data:`REGION_SHARE` of the earlier rows,
+    and the large amplitudes (a speed norm above the earlier rows' quantile ``1 −
+    REGION_SHARE``), must hold at least a :data:`COVER_RATIO` of that share of the tail.
+    Only the operating variables are read, never the residual: the choice of the split
+    cannot favour an effect.
+
+    Args:
+        regions: (n, R) direction variables on the grid.
+        early: rows before the tail.
+        tail: the last rows.
+    """
+    x = np.asarray(regions, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    both = np.concatenate([early, tail])
+    scale = np.sqrt(np.mean(x[both] ** 2, axis=0))
+    x = x / np.where(scale > 0, scale, 1.0)
+    a, b = x[early], x[tail]
+    for j in range(x.shape[1]):
+        for sign in (1.0, -1.0):
+            share = float(np.mean(sign * a[:, j] > 0))
+            if share >= REGION_SHARE and float(np.mean(sign * b[:, j] > 0)) < \
+                    COVER_RATIO * share:
+                return False
+    speed_a, speed_b = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    big = float(np.quantile(speed_a, 1.0 - REGION_SHARE))
+    return bool(np.mean(speed_b > big) >= COVER_RATIO * REGION_SHARE)
+
+
 def _spread(order: np.ndarray, k: int) -> np.ndarray:
     """``k`` entries of ``order`` at evenly spaced positions (systematic sampling)."""
     if k <= 0:
@@ -215,6 +252,9 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     rows = np.asarray(rows)
     n_out = len(rows) - int(round(train_fraction * len(rows)))
     n_tail = n_out - int(round(SPREAD_SHARE * n_out))
+    if regions is None or tail_covers(regions, rows[:len(rows) - n_out],
+                                      rows[len(rows) - n_out:]):
+        n_tail = n_out      # the last rows span the regions: the cut in time is kept
     k = len(rows) - n_tail
     if k - (n_out - n_tail) < 4 * MIN_BLOCK_ROWS or n_tail < 10:
         raise ValueError(f"recording too short: {len(rows)} usable rows (after masking and "
