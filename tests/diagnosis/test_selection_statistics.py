@@ -364,3 +364,25 @@ def test_split_blocks_cover_the_operating_regions():
                 or np.all(regions >= 0)
     # the tail (main: the whole outer test part) holds no large amplitude of the decay
     assert np.mean((np.abs(decay) > np.quantile(np.abs(decay)[rows], 0.67))[sp.tail]) < 0.05
+
+
+def test_cut_in_time_kept_when_the_tail_spans_the_regions():
+    """A stationary excitation (both directions, every amplitude throughout): the last 30 %
+    of the usable rows already span the regions and stay the outer test part (the rollouts'
+    contiguous part, the split of main); a decay or a log turning one way then the other
+    does not, and gets region blocks."""
+    from simgap.diagnosis import validation
+
+    t = np.arange(N) * DT
+    rows = validation.usable_rows(N, 5, np.ones((N, 1)), None)
+    k = int(round(0.7 * len(rows)))
+    steady = np.column_stack([np.sin(0.9 * t) + 0.5 * np.sin(2.9 * t), np.cos(1.7 * t)])
+    assert validation.tail_covers(steady, rows[:k], rows[k:])
+    sp = validation.split_rows(t, rows, None, 0.7, regions=steady)
+    assert np.array_equal(sp.test, rows[k:]) and np.array_equal(sp.fit, rows[:k])
+    assert np.all(sp.confirm_block == -1) and len(sp.guard) == 0
+    decay = np.exp(-t / (0.25 * t[-1])) * np.sin(2 * np.pi * 0.5 * t)
+    turns = np.where(t < 0.5 * t[-1], 1.0, -1.0) * (1.0 + 0.3 * np.sin(0.7 * t))
+    for x in (decay, turns):
+        assert not validation.tail_covers(x, rows[:k], rows[k:])
+        assert np.any(validation.split_rows(t, rows, None, 0.7, regions=x).confirm_block >= 0)
