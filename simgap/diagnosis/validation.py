@@ -16,9 +16,14 @@ operating region:
   amplitude level of their size), and the blocks, ordered by region then time, are
   assigned by systematic sampling: every part holds each region in proportion;
 * the **outer held-out part** (``test``: report numbers and the final confirmation, never
-  fitted and never used to pick) is a third of ``1 − train_fraction`` of the usable rows as
-  such blocks (:data:`SPREAD_SHARE`), with :data:`GUARD_ROWS` rows on each side in no part,
-  plus the last usable rows (the *tail*, which the rollout comparison needs contiguous);
+  fitted and never used to pick) is the last ``1 − train_fraction`` of the usable rows (the
+  *tail*, which the rollout comparison needs contiguous) when they span the operating
+  regions of the rows before them (:func:`tail_covers`: both directions and the large
+  amplitudes, read from the operating variables only, never from the residual) — a
+  stationary excitation, where a cut in time loses nothing; otherwise (a decay, a log
+  that turns one way then the other) it is a third of that share as blocks spread over
+  the regions (:data:`SPREAD_SHARE`), with :data:`GUARD_ROWS` rows on each side in no
+  part, plus a shorter tail;
 * of the other blocks (the **fit part**), a ``1 − train_fraction`` share *validates* the
   selection, the others train it; the chosen terms are then refitted on the whole fit part.
 
