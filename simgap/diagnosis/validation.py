@@ -238,7 +238,10 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
       contiguous stretch); rows next to a confirmation block (:data:`GUARD_ROWS`) are in
       no part;
     * of the remaining blocks, a ``1 − train_fraction`` share *validates* the selection,
-      the others train it.
+      the others train it. When the tail spans the regions (:func:`tail_covers`) the log
+      is stationary enough that blocks evenly spread in time span them too: no
+      confirmation blocks, and validation blocks in time order (the split of a plain cut
+      in time).
 
     Args:
         t: grid times (s).
@@ -257,8 +260,9 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     rows = np.asarray(rows)
     n_out = len(rows) - int(round(train_fraction * len(rows)))
     n_tail = n_out - int(round(SPREAD_SHARE * n_out))
-    if regions is None or tail_covers(regions, rows[:len(rows) - n_out],
-                                      rows[len(rows) - n_out:]):
+    spread = regions is not None and not tail_covers(regions, rows[:len(rows) - n_out],
+                                                     rows[len(rows) - n_out:])
+    if not spread:
         n_tail = n_out      # the last rows span the regions: the cut in time is kept
     k = len(rows) - n_tail
     if k - (n_out - n_tail) < 4 * MIN_BLOCK_ROWS or n_tail < 10:
@@ -277,7 +281,8 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
         labels[i] = block
         count += 1
     nb = block + 1
-    region = block_regions(regions, early, labels)
+    # a stationary log (the tail spans the regions) spreads validation over time as well
+    region = block_regions(regions if spread else None, early, labels)
     order = np.lexsort((np.arange(nb), region))   # by region, then time
     n_conf = int(round((n_out - n_tail) / max(len(early), 1) * nb))
     n_conf = min(max(n_conf, 1 if n_out > n_tail else 0), nb - 2)

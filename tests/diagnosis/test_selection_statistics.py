@@ -381,6 +381,9 @@ def test_cut_in_time_kept_when_the_tail_spans_the_regions():
     sp = validation.split_rows(t, rows, None, 0.7, regions=steady)
     assert np.array_equal(sp.test, rows[k:]) and np.array_equal(sp.fit, rows[:k])
     assert np.all(sp.confirm_block == -1) and len(sp.guard) == 0
+    plain = validation.split_rows(t, rows, None, 0.7)      # no regions: the time cut
+    assert all(np.array_equal(getattr(sp, f), getattr(plain, f))
+               for f in ("train", "valid", "valid_block", "fit", "test"))
     decay = np.exp(-t / (0.25 * t[-1])) * np.sin(2 * np.pi * 0.5 * t)
     turns = np.where(t < 0.5 * t[-1], 1.0, -1.0) * (1.0 + 0.3 * np.sin(0.7 * t))
     for x in (decay, turns):
