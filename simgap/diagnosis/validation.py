@@ -260,8 +260,8 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     rows = np.asarray(rows)
     n_out = len(rows) - int(round(train_fraction * len(rows)))
     n_tail = n_out - int(round(SPREAD_SHARE * n_out))
-    spread = regions is not None and not tail_covers(regions, rows[:len(rows) - n_out],
-                                                     rows[len(rows) - n_out:])
+    spread = regions is not None and n_tail >= 10 and len(rows) > n_out and not \
+        tail_covers(regions, rows[:len(rows) - n_out], rows[len(rows) - n_out:])
     if not spread:
         n_tail = n_out      # the last rows span the regions: the cut in time is kept
     k = len(rows) - n_tail
