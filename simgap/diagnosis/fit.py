@@ -3,9 +3,12 @@
 Every vocabulary effect at every channel is a hypothesis (a :class:`Term`). The residual is
 whitened per channel by its noise floor and thinned to every ``window // 2``-th sample (the
 Savitzky–Golay filter correlates neighbouring samples). The rows are split by
-:mod:`.validation`: usable rows only, the last share as the outer test part (report
-numbers), the rest cut into blocks of which an evenly spread share validates the selection
-(interleaved, so that validation sees the same operating regions as training).
+:mod:`.validation`: usable rows only, cut into contiguous blocks (never across a gap) that
+are assigned by operating region (direction × amplitude of the direction variables,
+:meth:`Fitter._region_variables`), so that training, validation and the outer held-out part
+each hold every region in proportion. The outer held-out part (report numbers and the
+final confirmation) is a share of such blocks plus the last usable rows (the tail, which the
+rollout comparison needs contiguous); it is never fitted and never used to pick.
 
 Forward selection: in each round every remaining term is fitted together with the terms
 already chosen (training blocks), and its held-out gain over the current set is *tested*
@@ -253,7 +256,8 @@ class Fitter:
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
         rows = validation.usable_rows(self.n, prepared.smoother.window, self.mask, seg)
-        self.split = validation.split_rows(prepared.t, rows, seg, train_fraction)
+        self.split = validation.split_rows(prepared.t, rows, seg, train_fraction,
+                                           regions=self._region_variables(system, prepared))
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
         #: the usable rows, increasing: every row set the fits read (training, validation,
@@ -277,6 +281,24 @@ class Fitter:
         #: terms kept in the fit as an identifiable combination but not named (the reason
         #: says which combination), by key (:meth:`_structural`)
         self.combinations: dict[tuple, str] = {}
+
+    @staticmethod
+    def _region_variables(system: Any, prepared: Prepared) -> np.ndarray | None:
+        """(N, R) direction variables that define the operating regions of the split.
+
+        The form's ``direction_variables`` (the bicycle: vy and the yaw rate, not the
+        forward speed), else every rate (unit ``…/s``) of its ``locate_variables`` (joint
+        velocities): their signs are the direction, their size the amplitude and speed
+        (:func:`.validation.block_regions`). None when the form declares none.
+        """
+        names = getattr(system, "direction_variables", None)
+        try:
+            variables = system.locate_variables(prepared)
+        except (AttributeError, NotImplementedError):
+            return None
+        cols = [np.asarray(v, dtype=np.float64) for name, (v, unit) in variables.items()
+                if (names is None and str(unit).endswith("/s")) or (names and name in names)]
+        return np.column_stack(cols) if cols else None
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
@@ -753,8 +775,12 @@ class Fitter:
     def _confirm(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
         """Refit on the whole fit part; keep only terms whose gain replicates held out.
 
-        The validation blocks chose the terms; the outer test part (later usable rows,
-        never fitted) is a second, independent held-out sample. A term whose removal the
+        The validation blocks chose the terms; the outer test part (confirmation blocks
+        spread over the operating regions plus the tail, never fitted and never used to
+        pick) is a second, independent held-out sample. Its blocks hold the same amplitudes
+        and directions as the fit part, so that a term fitted on large amplitudes (a damping
+        correction on a free decay) can be confirmed on large amplitudes, not only on the
+        small ones the tail of a decay holds. A term whose removal the
         likelihood-ratio test there does not reject (at :data:`ALPHA` shared by the terms)
         is not named: its validation gain did not replicate. A term the test part holds no
         information about is kept (and reported as not testable there), and so is a term
@@ -802,7 +828,7 @@ class Fitter:
             t = terms.pop(i)
             nls.pop(i)
             text = (f"{t.effect.label} at {t.channel} is not named: its gain on the "
-                    f"validation blocks did not replicate on the later held-out part (p = "
+                    f"validation blocks did not replicate on the outer held-out part (p = "
                     f"{p:.2g} ≥ {alpha:.2g}, share removed there {_share(g.share_removed)})")
             tried[(t.key,)].update(decision="not confirmed", reason=text)
             self._forget(sel, t)
@@ -818,7 +844,7 @@ class Fitter:
         correlated ≥ :data:`ALIAS_CORR`), the selection's pick between them is decided by
         noise, not by the data: e.g. a joint that turns one way only during the first 70 %
         of a short log makes a Coulomb friction and a constant torque bias identical there.
-        The later held-out part may separate them. Both sets are refitted on the whole fit
+        The outer held-out part may separate them. Both sets are refitted on the whole fit
         part and compared on the test part by the same likelihood-ratio test (non-nested:
         χ² with the alternative's parameter count, an approximation); the alternative
         replaces the term only when it is significantly better there (at :data:`ALPHA`).
@@ -848,7 +874,7 @@ class Fitter:
                     continue
                 text = (f"{term.effect.label} at {term.channel} and {alt.effect.label} at "
                         f"{alt.channel} could not be told apart by the selection (the same "
-                        f"validation residual); the later held-out part separates them: "
+                        f"validation residual); the outer held-out part separates them: "
                         f"{alt.effect.label} is better there (p = {g.p_value:.2g}, share "
                         f"removed {_share(g.share_removed)}) and is reported")
                 tried[(term.key,)].update(decision="rejected", reason=text)
@@ -876,7 +902,7 @@ class Fitter:
                     alt.effect.name in w["effects"] and alt.channel in w["channels"]:
                 w["text"] = (f"{term.effect.label} at {term.channel} and {alt.effect.label} "
                              f"at {alt.channel} could not be told apart by the selection (the "
-                             f"same validation residual); the later held-out part separates "
+                             f"same validation residual); the outer held-out part separates "
                              f"them: {term.effect.label} is better there (p = "
                              f"{g.p_value:.2g}, share removed {_share(g.share_removed)})")
 

@@ -447,6 +447,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             {"effect": e["effect"], "channel": e["channel"], "params": e["parameters"]}
             for e in entries])
     t = res.t
+    spans = _block_spans(t, fitter.test, fitter.split.confirm_block)
     data = {
         "schema": 1,
         "model": system.name,
@@ -473,11 +474,9 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
-                      "method": ("usable rows only (masked rows and a filter window at gaps "
-                                 "left out); outer test = the last "
-                                 f"{100 * (1 - train_fraction):.0f} % of them; selection "
-                                 f"validated on {len(np.unique(fitter.split.valid_block))} "
-                                 "interleaved blocks of the rest, then refitted on all of it"),
+                      "test_blocks": spans,
+                      "method": _split_method(spans, train_fraction,
+                                              len(np.unique(fitter.split.valid_block))),
                       "rows": {"train": int(len(fitter.train)),
                                "validation": int(len(fitter.valid)),
                                "test": int(len(fitter.test))}},
@@ -582,6 +581,28 @@ def _structure_entry(g: StructureTest, level: float) -> dict[str, Any]:
             "share_removed": round(float(g.share_removed), 4),
             "effective_samples": round(float(g.effective_samples), 1),
             "testable": g.testable, **({"reason": g.reason} if g.reason else {})}
+
+
+def _split_method(spans: list, train_fraction: float, n_valid: int) -> str:
+    """``fit.split.method`` in words (:func:`.validation.split_rows`)."""
+    held = f"{100 * (1 - train_fraction):.0f} %"
+    if not spans:
+        return ("usable rows only (masked rows and a filter window at gaps left out); the "
+                f"last {held} of them span the operating regions (direction, amplitude) of "
+                f"the rest and are the outer test part; selection validated on {n_valid} "
+                "blocks of the rest spread over time, then refitted on all of it")
+    return ("usable rows only (masked rows and a filter window at gaps left out), cut into "
+            "contiguous blocks assigned by operating region (direction x amplitude), as the "
+            f"last rows do not span them; outer held-out part = {held} of them: "
+            f"{len(spans)} blocks spread over the regions (test_blocks) and the last usable "
+            f"rows (test, the rollouts' part); selection validated on {n_valid} blocks of "
+            "the rest spread over the regions, then refitted on all of it")
+
+
+def _block_spans(t: np.ndarray, rows: np.ndarray, labels: np.ndarray) -> list[list[float]]:
+    """[start, end] times (s) of each outer held-out block (label ≥ 0; the tail is -1)."""
+    return [[float(t[rows[labels == b].min()]), float(t[rows[labels == b].max()])]
+            for b in np.unique(labels[labels >= 0])]
 
 
 def _jsonable(entry: dict[str, Any]) -> dict[str, Any]:

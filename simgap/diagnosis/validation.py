@@ -3,20 +3,42 @@
 A split at 70 % of the *time* fails on real logs: a free decay puts the large amplitudes in
 training and only the small ones (or only stick phases, which the fit masks) in the test
 part, so nothing can gain there; a gap in the log lets a filter window straddle two
-unrelated stretches. The split here works on *usable rows* only:
+unrelated stretches. The split here works on *usable rows* only, in blocks assigned by
+operating region:
 
 * rows are the residual grid thinned to every ``window // 2``-th sample (the smoothing
   filter correlates neighbours), away from the recording's ends and from gaps by one filter
   window, and kept only where at least one channel is unmasked;
-* the **outer test part** is the last ``1 − train_fraction`` of the usable rows (not of the
-  time): it is never seen by the fit or the selection and gives the report's held-out
-  numbers;
-* the rows before it (the **fit part**) are cut into :data:`BLOCKS` contiguous blocks that
-  never straddle a gap; an evenly spread ``1 − train_fraction`` of these blocks *validates*
-  the selection, the others train it. Interleaved blocks see the same operating regions as
-  the training blocks (amplitudes of a decay, both directions of a car that turns left and
-  right in turns, the speeds of a ramp), which a single cut in time does not; the chosen
-  terms are then refitted on the whole fit part.
+* these rows are cut into contiguous blocks that never straddle a gap (:data:`BLOCKS` of
+  the rows before the tail, at least :data:`MIN_BLOCK_ROWS` rows, i.e. 2.5 filter windows);
+  each block gets an **operating region** (:func:`block_regions`: the sign of each
+  direction variable — joint velocities, a car's lateral velocity and yaw rate — and the
+  amplitude level of their size), and the blocks, ordered by region then time, are
+  assigned by systematic sampling: every part holds each region in proportion;
+* the **outer held-out part** (``test``: report numbers and the final confirmation, never
+  fitted and never used to pick) is the last ``1 − train_fraction`` of the usable rows (the
+  *tail*, which the rollout comparison needs contiguous) when they span the operating
+  regions of the rows before them (:func:`tail_covers`: both directions and the large
+  amplitudes, read from the operating variables only, never from the residual) — a
+  stationary excitation, where a cut in time loses nothing; otherwise (a decay, a log
+  that turns one way then the other) it is a third of that share as blocks spread over
+  the regions (:data:`SPREAD_SHARE`), with :data:`GUARD_ROWS` rows on each side in no
+  part, plus a shorter tail;
+* of the other blocks (the **fit part**), a ``1 − train_fraction`` share *validates* the
+  selection, the others train it; the chosen terms are then refitted on the whole fit part.
+
+Why blocks by region rather than a cut in time: a free decay puts the large amplitudes in
+training and only the small ones (or only stick phases, which the fit masks) in a late
+test part, where a damping correction fitted on the large swings sits below the noise and
+can only be called "cannot test"; a log that turns left, then right, or ramps its speed,
+trains and tests on different regions. Blocks of one region spread over the parts see the
+same amplitudes, speeds and directions. Why contiguous blocks, not single rows: the
+residual's errors are autocorrelated (filter, model-structure error), so a held-out row
+next to a training row is not independent of it; within a block only the edges touch
+other parts, and the confirmation blocks' edges are guarded. What this is not: a full
+K-fold cross-validation (every block held out once) — the selection fits every hypothesis
+per round, and K folds would multiply its cost by K; one region-stratified assignment is
+used instead, with the confirmation blocks never touched by the selection.
 
 Whether a part can test a term at all is measured by :func:`information_share`: the energy
 of the term's regressors per held-out row relative to per training row. Where it is ~0 the
@@ -38,14 +60,14 @@ usual: its validation gain must replicate.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
 from simgap.diagnosis.significance import likelihood_ratio
 
-#: Contiguous blocks the fit part is cut into (an evenly spread share validates).
+#: Contiguous blocks the rows before the tail are cut into (assigned by region).
 BLOCKS = 20
 #: Fewest thinned rows in a block.
 MIN_BLOCK_ROWS = 5
@@ -55,6 +77,20 @@ NO_INFORMATION = 1e-6
 #: not detect a term there is "cannot test" (it holds too little of what fitted the term),
 #: not evidence against it (:func:`detectable`).
 LOW_INFORMATION = 0.25
+#: Share of the outer held-out rows taken as blocks spread over the operating regions (the
+#: rest is the tail, the last usable rows, which the rollout comparison needs contiguous).
+SPREAD_SHARE = 1.0 / 3.0
+#: A region (one sign of a direction variable, or the large amplitudes) holding this share
+#: of the rows before the tail must hold at least :data:`COVER_RATIO` of that share of the
+#: tail for the cut in time to be kept (:func:`tail_covers`).
+REGION_SHARE = 0.2
+COVER_RATIO = 0.25
+#: Amplitude levels of the operating regions (:func:`block_regions`).
+AMPLITUDE_LEVELS = 3
+#: Thinned rows on each side of a confirmation block left out of every part: the thinning
+#: step is half a filter window, so two rows cover the window through which the smoothing
+#: filter correlates a held-out row with its neighbours.
+GUARD_ROWS = 2
 #: A time step longer than this many median steps is a gap in the log.
 GAP_STEPS = 5.0
 
@@ -65,11 +101,17 @@ class Split:
 
     Attributes:
         train: rows that fit the candidates during selection.
-        valid: rows that score the candidates during selection (interleaved blocks).
+        valid: rows that score the candidates during selection (blocks spread over the
+            operating regions).
         valid_block: block label of each ``valid`` row (tests keep blocks apart).
         fit: train ∪ valid, in time order: the final fit of the chosen terms.
-        test: the outer held-out part (last usable rows).
-        t_split: time (s) between the fit part and the test part.
+        test: every outer held-out row, in time order: the confirmation blocks and the
+            tail (never fitted, never used to pick).
+        t_split: time (s) between the fit part and the tail.
+        tail: the last usable rows (after ``t_split``): the rollout comparison's part.
+        confirm_block: block label of each ``test`` row (-1 for the tail).
+        guard: rows next to a confirmation block, in no part (the smoothing filter
+            correlates them with the block).
     """
 
     train: np.ndarray
@@ -78,6 +120,9 @@ class Split:
     fit: np.ndarray
     test: np.ndarray
     t_split: float
+    tail: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    confirm_block: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    guard: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 def usable_rows(n: int, window: int, mask: np.ndarray, segment: np.ndarray | None
@@ -101,44 +146,166 @@ def usable_rows(n: int, window: int, mask: np.ndarray, segment: np.ndarray | Non
     return rows[np.asarray(mask)[rows].any(axis=1)] if len(rows) else rows
 
 
+def block_regions(regions: np.ndarray | None, rows: np.ndarray, labels: np.ndarray,
+                  levels: int = AMPLITUDE_LEVELS) -> np.ndarray:
+    """Operating-region stratum of each block: direction pattern × amplitude level.
+
+    Args:
+        regions: (n, R) direction variables on the grid (velocities, a car's lateral
+            velocity and yaw rate; any units), or None.
+        rows: the rows the blocks are made of.
+        labels: block label (0 … B−1) of each row.
+        levels: amplitude levels (quantiles over the blocks).
+
+    Returns:
+        (B,) integer stratum per block: the sign of each variable's block mean (direction)
+        and the quantile level of the block's RMS of the variables, each divided by its own
+        RMS over ``rows`` (amplitude, speed). All zeros when ``regions`` is None.
+    """
+    nb = int(labels.max()) + 1 if len(labels) else 0
+    if regions is None or nb == 0:
+        return np.zeros(nb, dtype=np.int64)
+    x = np.asarray(regions, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    x = x[rows]
+    scale = np.sqrt(np.mean(x**2, axis=0))
+    x = x / np.where(scale > 0, scale, 1.0)
+    count = np.bincount(labels, minlength=nb).astype(float)
+    code = np.zeros(nb, dtype=np.int64)
+    for j in range(x.shape[1]):
+        mean = np.bincount(labels, weights=x[:, j], minlength=nb) / count
+        code = 2 * code + (mean > 0)
+    amp = np.sqrt(np.bincount(labels, weights=np.sum(x**2, axis=1), minlength=nb) / count)
+    level = np.minimum((np.argsort(np.argsort(amp, kind="stable"), kind="stable") * levels)
+                       // max(nb, 1), levels - 1)
+    return code * levels + level
+
+
+def tail_covers(regions: np.ndarray, early: np.ndarray, tail: np.ndarray) -> bool:
+    """Whether the last usable rows span the operating regions of the rows before them.
+
+    Row by row, on the direction variables divided by their RMS over all these rows: each
+    sign of each variable that holds at least :data:`REGION_SHARE` of the earlier rows,
+    and the large amplitudes (a speed norm above the earlier rows' quantile ``1 −
+    REGION_SHARE``), must hold at least a :data:`COVER_RATIO` of that share of the tail.
+    Only the operating variables are read, never the residual: the choice of the split
+    cannot favour an effect.
+
+    Args:
+        regions: (n, R) direction variables on the grid.
+        early: rows before the tail.
+        tail: the last rows.
+    """
+    x = np.asarray(regions, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    both = np.concatenate([early, tail])
+    scale = np.sqrt(np.mean(x[both] ** 2, axis=0))
+    x = x / np.where(scale > 0, scale, 1.0)
+    a, b = x[early], x[tail]
+    for j in range(x.shape[1]):
+        for sign in (1.0, -1.0):
+            share = float(np.mean(sign * a[:, j] > 0))
+            if share >= REGION_SHARE and float(np.mean(sign * b[:, j] > 0)) < \
+                    COVER_RATIO * share:
+                return False
+    speed_a, speed_b = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    big = float(np.quantile(speed_a, 1.0 - REGION_SHARE))
+    return bool(np.mean(speed_b > big) >= COVER_RATIO * REGION_SHARE)
+
+
+def _spread(order: np.ndarray, k: int) -> np.ndarray:
+    """``k`` entries of ``order`` at evenly spaced positions (systematic sampling)."""
+    if k <= 0:
+        return np.zeros(0, dtype=order.dtype)
+    pos = np.round((np.arange(k) + 0.5) / k * len(order) - 0.5).astype(int)
+    return order[np.unique(np.clip(pos, 0, len(order) - 1))]
+
+
 def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
-               train_fraction: float) -> Split:
-    """Split usable rows into training, validation (interleaved blocks) and outer test.
+               train_fraction: float, regions: np.ndarray | None = None) -> Split:
+    """Split usable rows into training, validation and outer held-out parts (blocks).
+
+    The usable rows before the tail are cut into :data:`BLOCKS` contiguous blocks that
+    never straddle a gap; each block gets its operating region (:func:`block_regions`:
+    direction × amplitude). Blocks are ordered by region, then time, and assigned by
+    systematic sampling over that order, so that every part holds each region in
+    proportion (the same amplitudes, speeds and directions in training, validation and
+    confirmation), and, within a region, blocks spread over time:
+
+    * the **outer held-out part** (``test``) is :data:`SPREAD_SHARE` of ``1 −
+      train_fraction`` of the usable rows as such blocks, plus the rest of it as the last
+      usable rows (the **tail**, kept for the rollout comparison, which needs a
+      contiguous stretch); rows next to a confirmation block (:data:`GUARD_ROWS`) are in
+      no part;
+    * of the remaining blocks, a ``1 − train_fraction`` share *validates* the selection,
+      the others train it. When the tail spans the regions (:func:`tail_covers`) the log
+      is stationary enough that blocks evenly spread in time span them too: no
+      confirmation blocks, and validation blocks in time order (the split of a plain cut
+      in time).
 
     Args:
         t: grid times (s).
         rows: usable rows (:func:`usable_rows`), increasing.
         segment: (n,) segment label per grid row, or None for one segment.
-        train_fraction: share of the usable rows before the outer test part, and share of
-            the blocks of that part that train.
+        train_fraction: share of the usable rows in the fit part (training and validation),
+            and share of the fit part's blocks that train.
+        regions: (n, R) direction variables on the grid that define the operating regions,
+            or None (blocks then spread over time only).
 
     Raises:
         ValueError: too few usable rows for the three parts.
     """
     if not 0.0 < train_fraction < 1.0:
         raise ValueError(f"train_fraction must be in (0, 1), got {train_fraction!r}")
-    k = int(round(train_fraction * len(rows)))
-    if k < 4 * MIN_BLOCK_ROWS or len(rows) - k < 10:
+    rows = np.asarray(rows)
+    n_out = len(rows) - int(round(train_fraction * len(rows)))
+    n_tail = n_out - int(round(SPREAD_SHARE * n_out))
+    spread = regions is not None and n_tail >= 10 and len(rows) > n_out and not \
+        tail_covers(regions, rows[:len(rows) - n_out], rows[len(rows) - n_out:])
+    if not spread:
+        n_tail = n_out      # the last rows span the regions: the cut in time is kept
+    k = len(rows) - n_tail
+    if k - (n_out - n_tail) < 4 * MIN_BLOCK_ROWS or n_tail < 10:
         raise ValueError(f"recording too short: {len(rows)} usable rows (after masking and "
                          "thinning) cannot be split into training, validation and test parts")
-    fit, test = rows[:k], rows[k:]
+    early, tail = rows[:k], rows[k:]
     seg = np.zeros(len(t), dtype=np.int64) if segment is None or len(segment) != len(t) \
         else np.asarray(segment)
-    size = max(MIN_BLOCK_ROWS, len(fit) // BLOCKS)
+    size = max(MIN_BLOCK_ROWS, len(early) // BLOCKS)
     # a block ends every `size` rows and wherever the segment changes
-    labels = np.zeros(len(fit), dtype=np.int64)
+    labels = np.zeros(len(early), dtype=np.int64)
     block, count = 0, 0
-    for i in range(len(fit)):
-        if i and (count >= size or seg[fit[i]] != seg[fit[i - 1]]):
+    for i in range(len(early)):
+        if i and (count >= size or seg[early[i]] != seg[early[i - 1]]):
             block, count = block + 1, 0
         labels[i] = block
         count += 1
     nb = block + 1
-    n_valid = min(nb - 1, max(1, int(round((1.0 - train_fraction) * nb))))
-    chosen = np.unique(np.round((np.arange(n_valid) + 0.5) / n_valid * nb - 0.5).astype(int))
-    is_valid = np.isin(labels, chosen)
-    return Split(train=fit[~is_valid], valid=fit[is_valid], valid_block=labels[is_valid],
-                 fit=fit, test=test, t_split=float(0.5 * (t[fit[-1]] + t[test[0]])))
+    # a stationary log (the tail spans the regions) spreads validation over time as well
+    region = block_regions(regions if spread else None, early, labels)
+    order = np.lexsort((np.arange(nb), region))   # by region, then time
+    n_conf = int(round((n_out - n_tail) / max(len(early), 1) * nb))
+    n_conf = min(max(n_conf, 1 if n_out > n_tail else 0), nb - 2)
+    conf = _spread(order, n_conf)
+    rest = order[~np.isin(order, conf)]
+    n_valid = min(len(rest) - 1, max(1, int(round((1.0 - train_fraction) * len(rest)))))
+    chosen = _spread(rest, n_valid)
+    is_conf = np.isin(labels, conf)
+    is_guard = np.zeros(len(early), dtype=bool)
+    pos = np.flatnonzero(is_conf)
+    for g in range(1, GUARD_ROWS + 1):
+        is_guard[np.clip(pos - g, 0, len(early) - 1)] = True
+        is_guard[np.clip(pos + g, 0, len(early) - 1)] = True
+    is_guard &= ~is_conf
+    is_valid = np.isin(labels, chosen) & ~is_guard
+    is_train = ~(is_valid | is_conf | is_guard)
+    fit = early[is_valid | is_train]
+    test = np.concatenate([early[is_conf], tail])
+    return Split(train=early[is_train], valid=early[is_valid], valid_block=labels[is_valid],
+                 fit=fit, test=test, t_split=float(0.5 * (t[early[-1]] + t[tail[0]])),
+                 tail=tail, confirm_block=np.concatenate(
+                     [labels[is_conf], np.full(len(tail), -1, dtype=np.int64)]),
+                 guard=early[is_guard])
 
 
 def gap_segments(t_recorded: np.ndarray, t_grid: np.ndarray

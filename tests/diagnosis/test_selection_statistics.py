@@ -278,7 +278,7 @@ def test_fits_on_the_usable_rows_equal_the_full_grid_fit_there():
     fitter = _fitter(Fake(), r, np.array([0.1]))
     terms = [Term(_effect("a", x), 0, "c"), Term(_effect("b", z), 0, "c")]
     full, light = fitter.fit(terms), fitter.fit(terms, full=False)
-    usable = np.sort(np.concatenate([fitter.fit_rows, fitter.test]))
+    usable = np.sort(np.concatenate([fitter.fit_rows, fitter.test, fitter.split.guard]))
     assert full.rows is None and np.array_equal(light.rows, usable)
     assert len(usable) < N / 2                             # thinned: far fewer rows
     for p_full, p_light in zip(full.pred, light.pred, strict=True):
@@ -321,3 +321,71 @@ def test_row_blocks_change_no_number(monkeypatch, model, effect):
     monkeypatch.setattr(systems, "MASS_BLOCK_ROWS", 97)
     monkeypatch.setattr(compare, "BLOCK_ROWS", 89)
     assert report() == whole
+
+
+def test_split_blocks_cover_the_operating_regions():
+    """Issue 13, "blocked cross-validation over operating regions": on a free decay (the
+    amplitude falls with time) and on a log that turns one way, then the other, every part
+    holds the large amplitudes and both directions (main: the outer test part was the last
+    30 % in time, small amplitudes of one direction only); the parts are disjoint, the
+    confirmation blocks are guarded, no block straddles a gap and the split is
+    deterministic."""
+    from simgap.diagnosis import validation
+
+    t = np.arange(N) * DT
+    seg = (t > 0.5 * t[-1]).astype(int)                     # a gap half-way
+    decay = np.exp(-t / (0.25 * t[-1])) * np.sin(2 * np.pi * 0.5 * t)
+    turns = np.where(t < 0.5 * t[-1], 1.0, -1.0) * (1.0 + 0.3 * np.sin(0.7 * t))
+    rows = validation.usable_rows(N, 5, np.ones((N, 1)), seg)
+    for regions in (np.abs(decay), decay, turns):
+        sp = validation.split_rows(t, rows, seg, 0.7, regions=regions[:, None])
+        again = validation.split_rows(t, rows, seg, 0.7, regions=regions[:, None])
+        assert all(np.array_equal(getattr(sp, f), getattr(again, f))
+                   for f in ("train", "valid", "test", "guard"))
+        parts = [sp.train, sp.valid, sp.test, sp.guard]
+        assert sum(len(p) for p in parts) == len(rows)
+        assert len(np.unique(np.concatenate(parts))) == len(rows)
+        assert np.array_equal(np.sort(np.concatenate([sp.train, sp.valid])), sp.fit)
+        blocks = sp.test[sp.confirm_block >= 0]
+        assert 0.05 * len(rows) < len(blocks) < 0.15 * len(rows)
+        assert np.all(t[sp.tail] > sp.t_split) and np.all(t[sp.fit] < sp.t_split)
+        for b in np.unique(sp.confirm_block[sp.confirm_block >= 0]):
+            assert len(np.unique(seg[sp.test[sp.confirm_block == b]])) == 1
+        # the guard separates each confirmation block from the fit part
+        pos = np.searchsorted(rows, blocks)
+        fit_pos = np.searchsorted(rows, sp.fit)
+        assert np.min(np.abs(fit_pos[:, None] - pos[None, :])) > validation.GUARD_ROWS
+        # every part holds the large amplitudes and each direction
+        size = np.abs(regions)
+        big = size > np.quantile(size[rows], 0.67)
+        for part in (sp.train, sp.valid, blocks):
+            assert np.mean(big[part]) > 0.15
+            assert np.mean(regions[part] > 0) > 0.15 and np.mean(regions[part] < 0) > 0.15 \
+                or np.all(regions >= 0)
+    # the tail (main: the whole outer test part) holds no large amplitude of the decay
+    assert np.mean((np.abs(decay) > np.quantile(np.abs(decay)[rows], 0.67))[sp.tail]) < 0.05
+
+
+def test_cut_in_time_kept_when_the_tail_spans_the_regions():
+    """A stationary excitation (both directions, every amplitude throughout): the last 30 %
+    of the usable rows already span the regions and stay the outer test part (the rollouts'
+    contiguous part, the split of main); a decay or a log turning one way then the other
+    does not, and gets region blocks."""
+    from simgap.diagnosis import validation
+
+    t = np.arange(N) * DT
+    rows = validation.usable_rows(N, 5, np.ones((N, 1)), None)
+    k = int(round(0.7 * len(rows)))
+    steady = np.column_stack([np.sin(0.9 * t) + 0.5 * np.sin(2.9 * t), np.cos(1.7 * t)])
+    assert validation.tail_covers(steady, rows[:k], rows[k:])
+    sp = validation.split_rows(t, rows, None, 0.7, regions=steady)
+    assert np.array_equal(sp.test, rows[k:]) and np.array_equal(sp.fit, rows[:k])
+    assert np.all(sp.confirm_block == -1) and len(sp.guard) == 0
+    plain = validation.split_rows(t, rows, None, 0.7)      # no regions: the time cut
+    assert all(np.array_equal(getattr(sp, f), getattr(plain, f))
+               for f in ("train", "valid", "valid_block", "fit", "test"))
+    decay = np.exp(-t / (0.25 * t[-1])) * np.sin(2 * np.pi * 0.5 * t)
+    turns = np.where(t < 0.5 * t[-1], 1.0, -1.0) * (1.0 + 0.3 * np.sin(0.7 * t))
+    for x in (decay, turns):
+        assert not validation.tail_covers(x, rows[:k], rows[k:])
+        assert np.any(validation.split_rows(t, rows, None, 0.7, regions=x).confirm_block >= 0)
