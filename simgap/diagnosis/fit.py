@@ -70,6 +70,7 @@ size and decision (named, rejected, cannot test, removed, demoted, not identifia
 from __future__ import annotations
 
 import dataclasses
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -100,6 +101,9 @@ FLIP_SIDE_SHARE = 0.1
 SYMMETRY_Z = 3.0
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
+#: Bases of nonlinear terms kept (least recently used dropped), each (usable rows, channels,
+#: linear parameters + 1) floats.
+NL_CACHE = 48
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
 
 
@@ -264,6 +268,15 @@ class Fitter:
         # what the effects may read (forms.EffectContext)
         self.ctx = system.context(prepared)
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        #: bases of terms with nonlinear parameters at exact values, least recently used
+        #: first (:data:`NL_CACHE`): every trial of a round starts from the same values of
+        #: the chosen nonlinear terms, and its finite-difference steps from the same steps
+        self._nl_cache: OrderedDict[tuple, tuple[np.ndarray, np.ndarray, bool]] = \
+            OrderedDict()
+        #: whether the effects' context depends on the model's terms (the system's
+        #: ``context_couples``; assumed so unless it says otherwise): then no nonlinear
+        #: basis is cached (a term's basis would depend on the others' values)
+        self._ctx_couples = bool(getattr(system, "context_couples", True))
         #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
         self._alternatives: dict[tuple, list[Term]] = {}
         #: named terms the outer test part could not detect at their fitted size
@@ -302,10 +315,19 @@ class Fitter:
             the terms without nonlinear parameters holds U·C·(n_lin + 1) numbers per term,
             not N·C·(n_lin + 1).
         """
-        key = (term.key, tuple(np.round(nl, 12)))
-        if key in self._cache:
-            return self._cache[key]
         e = term.effect
+        nkey = None
+        if e.nl and not self._ctx_couples:
+            # exact values: the cached basis is the one recomputing would give, bit for bit
+            nkey = (term.key, np.asarray(nl, float).tobytes())
+            hit = self._nl_cache.get(nkey)
+            if hit is not None:
+                self._nl_cache.move_to_end(nkey)
+                return hit
+        elif not e.nl:
+            key = (term.key, tuple(np.round(nl, 12)))
+            if key in self._cache:
+                return self._cache[key]
         k = len(e.lin)
         use = self._usable
         full = self.output(term, np.zeros(k), nl)
@@ -319,6 +341,10 @@ class Fitter:
         out = (cols, off, off_any)
         if not e.nl:
             self._cache[key] = out
+        elif nkey is not None:
+            self._nl_cache[nkey] = out
+            if len(self._nl_cache) > NL_CACHE:
+                self._nl_cache.popitem(last=False)
         return out
 
     def at(self, rows: np.ndarray) -> np.ndarray:
