@@ -63,6 +63,20 @@ linear ones solved inside (variable projection), started from the best point of 
 grid. Standard errors: s²(JᵀJ)⁻¹ with the full Jacobian at the optimum, s² the whitened
 residual variance.
 
+Cost: a term's basis (its filtered regressors on the usable rows) is computed once per
+parameter value. Terms without nonlinear parameters are cached for the whole selection;
+terms with them are cached at exact values, least recently used dropped (:data:`NL_CACHE`),
+where the system's context does not couple terms (``context_couples``). That matters once a
+nonlinear term is chosen: every later trial fit re-optimises it (``least_squares``) from
+the same start with the same finite-difference steps, and each evaluation otherwise filtered
+its regressor over the full grid again. The cache returns what recomputing would, bit for
+bit, so no test statistic or named effect changes. Cheaper approximations (screening the
+trials with the chosen nonlinear values held fixed, or fitting them on a subsample) were not
+used: they change the held-out statistics the gates read, and with them what is named on
+the proof cases. What a longer log of the same physics still costs more per sample is more
+rounds and more nonlinear refits *because it names more* (``benchmarks/diagnosis_scaling.py``,
+``docs/diagnosis-report.md``).
+
 Every term tried ends in :attr:`Selection.tried` with its test, statistic, p-value, effect
 size and decision (named, rejected, cannot test, removed, demoted, not identifiable, not confirmed).
 """
