@@ -68,6 +68,20 @@ linear ones solved inside (variable projection), started from the best point of 
 grid. Standard errors: s²(JᵀJ)⁻¹ with the full Jacobian at the optimum, s² the whitened
 residual variance.
 
+Cost: a term's basis (its filtered regressors on the usable rows) is computed once per
+parameter value. Terms without nonlinear parameters are cached for the whole selection;
+terms with them are cached at exact values, least recently used dropped (:data:`NL_CACHE`),
+where the system's context does not couple terms (``context_couples``). That matters once a
+nonlinear term is chosen: every later trial fit re-optimises it (``least_squares``) from
+the same start with the same finite-difference steps, and each evaluation otherwise filtered
+its regressor over the full grid again. The cache returns what recomputing would, bit for
+bit, so no test statistic or named effect changes. Cheaper approximations (screening the
+trials with the chosen nonlinear values held fixed, or fitting them on a subsample) were not
+used: they change the held-out statistics the gates read, and with them what is named on
+the proof cases. What a longer log of the same physics still costs more per sample is more
+rounds and more nonlinear refits *because it names more* (``benchmarks/diagnosis_scaling.py``,
+``docs/diagnosis-report.md``).
+
 Every term tried ends in :attr:`Selection.tried` with its test, statistic, p-value, effect
 size and decision (named, rejected, cannot test, removed, demoted, not identifiable, not confirmed).
 """
@@ -75,6 +89,7 @@ size and decision (named, rejected, cannot test, removed, demoted, not identifia
 from __future__ import annotations
 
 import dataclasses
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -108,6 +123,9 @@ FLIP_SIDE_SHARE = 0.1
 SYMMETRY_ALPHA = ALPHA
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
+#: Bases of nonlinear terms kept (least recently used dropped), each (usable rows, channels,
+#: linear parameters + 1) floats.
+NL_CACHE = 48
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
 
 
@@ -273,6 +291,15 @@ class Fitter:
         # what the effects may read (forms.EffectContext)
         self.ctx = system.context(prepared)
         self._cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        #: bases of terms with nonlinear parameters at exact values, least recently used
+        #: first (:data:`NL_CACHE`): every trial of a round starts from the same values of
+        #: the chosen nonlinear terms, and its finite-difference steps from the same steps
+        self._nl_cache: OrderedDict[tuple, tuple[np.ndarray, np.ndarray, bool]] = \
+            OrderedDict()
+        #: whether the effects' context depends on the model's terms (the system's
+        #: ``context_couples``; assumed so unless it says otherwise): then no nonlinear
+        #: basis is cached (a term's basis would depend on the others' values)
+        self._ctx_couples = bool(getattr(system, "context_couples", True))
         #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
         self._alternatives: dict[tuple, list[Term]] = {}
         #: named terms the outer test part could not detect at their fitted size
@@ -329,10 +356,19 @@ class Fitter:
             the terms without nonlinear parameters holds U·C·(n_lin + 1) numbers per term,
             not N·C·(n_lin + 1).
         """
-        key = (term.key, tuple(np.round(nl, 12)))
-        if key in self._cache:
-            return self._cache[key]
         e = term.effect
+        nkey = None
+        if e.nl and not self._ctx_couples:
+            # exact values: the cached basis is the one recomputing would give, bit for bit
+            nkey = (term.key, np.asarray(nl, float).tobytes())
+            hit = self._nl_cache.get(nkey)
+            if hit is not None:
+                self._nl_cache.move_to_end(nkey)
+                return hit
+        elif not e.nl:
+            key = (term.key, tuple(np.round(nl, 12)))
+            if key in self._cache:
+                return self._cache[key]
         k = len(e.lin)
         use = self._usable
         full = self.output(term, np.zeros(k), nl)
@@ -346,6 +382,10 @@ class Fitter:
         out = (cols, off, off_any)
         if not e.nl:
             self._cache[key] = out
+        elif nkey is not None:
+            self._nl_cache[nkey] = out
+            if len(self._nl_cache) > NL_CACHE:
+                self._nl_cache.popitem(last=False)
         return out
 
     def at(self, rows: np.ndarray) -> np.ndarray:

@@ -251,6 +251,9 @@ class MechanicalSystem:
             default ``columns``.
     """
 
+    #: The effects' context does not depend on the model's terms (:meth:`context`): a
+    #: term's basis depends on its own values only, so the fitter may cache it.
+    context_couples = False
     kind = "mechanical"
 
     def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns | None = None,

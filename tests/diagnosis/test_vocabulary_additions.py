@@ -124,3 +124,34 @@ def test_env_refuses_a_plant_with_an_input_delay() -> None:
     env = ManipulatorFrictionEnv()
     with pytest.raises(EnvError, match="input_delay"):
         env.plant = env.plant.with_effect("input_delay", "joint1", delay=0.01)
+
+
+def test_nonlinear_basis_cache_changes_no_number(monkeypatch) -> None:
+    """The fitter's cache of nonlinear terms' bases (issue 13's cost) returns what
+    recomputing gives, bit for bit: the same delay diagnosis with the cache off
+    (``NL_CACHE = 0``) has the same selection record, and the cache did serve hits."""
+    from simgap.diagnosis import fit as fit_mod
+    from simgap.diagnosis.pipeline import diagnose
+
+    rec = generate("manipulator2dof",
+                   [InjectedEffect(effect="input_delay", params={"delay": 0.01})],
+                   duration=QUICK, seed=6)
+    calls = {"n": 0}
+    output = fit_mod.Fitter.output
+
+    def counted(self, *a, **k):
+        calls["n"] += 1
+        return output(self, *a, **k)
+
+    monkeypatch.setattr(fit_mod.Fitter, "output", counted)
+    cached = diagnose(rec, "manipulator2dof")
+    with_cache = calls["n"]
+    monkeypatch.setattr(fit_mod, "NL_CACHE", 0)
+    calls["n"] = 0
+    plain = diagnose(rec, "manipulator2dof")
+    assert calls["n"] > with_cache
+    assert json.dumps(cached.selection.tried, default=str) == \
+        json.dumps(plain.selection.tried, default=str)
+    assert cached.selection.history == plain.selection.history
+    assert [e["effect"] for e in cached.effects] == [e["effect"] for e in plain.effects]
+    assert any(e["effect"] == "input_delay" for e in cached.effects)
