@@ -150,16 +150,42 @@ def _off_state(y: np.ndarray, state: np.ndarray) -> np.ndarray:
     q1, q2, q̇1, q̇2) with :data:`LAG_NUISANCE_BINS` quantile-bin indicators each: any
     friction, drag, spring, offset or gravity error, whatever its shape, is a function of
     one of them. What is left of ``y`` is what the state cannot explain.
+
+    The indicator design is never formed (it was (n, 1 + V·(B−1)) floats and its least-squares
+    copies, ≈ 0.8 KB per sample on the arm; issue 17's memory bar): its normal equations
+    are bin co-occurrence counts and per-bin sums (``np.bincount``), solved by least squares
+    on the small (P, P) system, and the fit is subtracted by indexing.
     """
-    cols = [np.ones(len(y))]
+    n = len(y)
+    idx, offsets, p = [], [], 1
     for x in state.T:
         edges = np.unique(np.quantile(x, np.linspace(0.0, 1.0, LAG_NUISANCE_BINS + 1)))
-        k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, max(edges.size - 2, 0))
-        for b in range(1, max(edges.size - 1, 1)):
-            cols.append((k == b).astype(np.float64))
-    design = np.stack(cols, axis=1)
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    return y - design @ coef
+        nb = max(edges.size - 1, 1)
+        k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, nb - 1)
+        idx.append(k)
+        offsets.append(p - 1)          # bin b ≥ 1 of this variable is column offset + b
+        p += nb - 1
+    gram = np.zeros((p, p))
+    rhs = np.zeros((p, y.shape[1]))
+    gram[0, 0] = n
+    rhs[0] = y.sum(axis=0)
+    for a, (ka, oa) in enumerate(zip(idx, offsets)):
+        na = int(ka.max()) + 1 if ka.size else 1
+        cnt = np.bincount(ka, minlength=na)[1:]
+        gram[0, oa + 1:oa + na] = gram[oa + 1:oa + na, 0] = cnt
+        for c in range(y.shape[1]):
+            rhs[oa + 1:oa + na, c] = np.bincount(ka, weights=y[:, c], minlength=na)[1:]
+        for kb, ob in zip(idx[a:], offsets[a:]):
+            nbb = int(kb.max()) + 1 if kb.size else 1
+            joint = np.bincount(ka * nbb + kb, minlength=na * nbb).reshape(na, nbb)[1:, 1:]
+            gram[oa + 1:oa + na, ob + 1:ob + nbb] = joint
+            gram[ob + 1:ob + nbb, oa + 1:oa + na] = joint.T
+    coef, *_ = np.linalg.lstsq(gram, rhs, rcond=None)
+    out = y - coef[0]
+    for k, o in zip(idx, offsets):
+        table = np.vstack([np.zeros((1, y.shape[1])), coef[o + 1:o + int(k.max()) + 1]])
+        out -= table[k]
+    return out
 
 
 def _lag_of(hold: str) -> float:
@@ -452,9 +478,12 @@ class MechanicalSystem:
         held = self.residual_of(raw, plan)
         sampled = self.residual_of(raw, dataclasses.replace(plan, hold=0.0))
         valid = (plan.kernel or plan.inner).valid(len(held))
-        sig = self._signals(raw, plan)
+        sig = self._signals(raw, plan, residual_only=True)   # q, dq: the same values
         state = np.concatenate([sig["q"], sig["dq"]], axis=1)[valid]
-        d, r0 = _off_state((held - sampled)[valid], state), _off_state(sampled[valid], state)
+        del sig
+        held -= sampled                                        # r(½) − r(0), in place
+        d, r0 = _off_state(held[valid], state), _off_state(sampled[valid], state)
+        del held, sampled, state
         w = 1.0 / np.maximum(np.mean(r0**2, axis=0), 1e-300)
         den = float(np.sum(w * np.sum(d * d, axis=0)))
         if den <= 0.0:
