@@ -151,6 +151,55 @@ class MechanicalNominalModel(BaseNominalModel):
         return self.M(q) @ ddq + self.bias(q, dq)
 
 
+class OneDofMechanicalModel(MechanicalNominalModel):
+    """A 1-DOF mechanical nominal model with constant inertia and momentum state.
+
+    Identifier state x = (q, p) with p = J dq, J the constant inertia (kg·m²) or mass (kg)
+    that subclasses return from :attr:`joint_inertia`; they implement :meth:`bias` and
+    :meth:`f`. What follows from J alone is written here once.
+    """
+
+    @property
+    def joint_inertia(self) -> float:
+        """The constant inertia J (kg·m², revolute) or mass (kg, prismatic)."""
+        raise NotImplementedError
+
+    @property
+    def residual_names(self) -> tuple[str, ...]:
+        """Left-out force/torque at the joint."""
+        return ("tau_d1",)
+
+    @property
+    def residual_units(self) -> tuple[str, ...]:
+        """The input's unit: N (prismatic) or N·m (revolute)."""
+        return self.input_units
+
+    def state(self, obs: np.ndarray) -> np.ndarray:
+        """Observation (q, dq) → identifier state (q, p = J dq)."""
+        out = np.array(obs, dtype=np.float64)
+        out[..., 1] = self.joint_inertia * out[..., 1]
+        return out
+
+    def observation(self, x: np.ndarray) -> np.ndarray:
+        """Identifier state (q, p) → observation (q, dq = p / J)."""
+        out = np.array(x, dtype=np.float64)
+        out[..., 1] = out[..., 1] / self.joint_inertia
+        return out
+
+    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802 - the physics name
+        """Mass matrix [[J]] (kg·m² or kg); for q of shape (..., 1) returns (..., 1, 1)."""
+        q = np.asarray(q, dtype=np.float64)
+        return np.full(q.shape[:-1] + (1, 1), self.joint_inertia)
+
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Force/torque the nominal needs for the motion: J ddq + bias (N or N·m); rows ok."""
+        return self.joint_inertia * np.asarray(ddq, dtype=np.float64) + self.bias(q, dq)
+
+    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """State residual g (…, 2) → left-out force/torque tau_d = −g[1:] (N or N·m)."""
+        return -np.asarray(g, dtype=np.float64)[..., 1:]
+
+
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
     """Angle(s) ``a`` (rad) mapped to (−π, π]: a − 2π k for the one integer k that fits."""
     return np.pi - np.mod(np.pi - a, 2.0 * np.pi)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simgap.models.base import MechanicalNominalModel, validate_positive
+from simgap.models.base import OneDofMechanicalModel, validate_positive
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -53,7 +53,7 @@ class PendulumParams:
         return float(np.sqrt(self.mgl / self.inertia))
 
 
-class PendulumNominal(MechanicalNominalModel):
+class PendulumNominal(OneDofMechanicalModel):
     """Nominal model of a damped pendulum driven by a joint torque ``u``.
 
     Args:
@@ -88,6 +88,11 @@ class PendulumNominal(MechanicalNominalModel):
                 f"channel={self.channel_names[0]!r}, name={self.name!r})")
 
     @property
+    def joint_inertia(self) -> float:
+        """J (kg·m²)."""
+        return self.params.inertia
+
+    @property
     def position_units(self) -> tuple[str, ...]:
         """Unit of q (rad)."""
         return ("rad",)
@@ -97,31 +102,9 @@ class PendulumNominal(MechanicalNominalModel):
         """Unit of dq (rad/s)."""
         return ("rad/s",)
 
-    @property
-    def residual_names(self) -> tuple[str, ...]:
-        """Left-out torque at the joint."""
-        return ("tau_d1",)
-
-    @property
-    def residual_units(self) -> tuple[str, ...]:
-        """N·m."""
-        return self.input_units
-
     def nominal_coefficients(self) -> dict[str, tuple[float, ...]]:
         """The model's own per-joint passive terms: ``damping`` (N·m·s/rad)."""
         return {"damping": (float(self.params.damping),)}
-
-    def state(self, obs: np.ndarray) -> np.ndarray:
-        """Observation (q, dq) → identifier state (q, p = J dq)."""
-        out = np.array(obs, dtype=np.float64)
-        out[..., 1] = self.params.inertia * out[..., 1]
-        return out
-
-    def observation(self, x: np.ndarray) -> np.ndarray:
-        """Identifier state (q, p) → observation (q, dq = p / J)."""
-        out = np.array(x, dtype=np.float64)
-        out[..., 1] = out[..., 1] / self.params.inertia
-        return out
 
     def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Nominal derivative (p/J, u − b p/J − mgl sin q) (rows ok)."""
@@ -131,21 +114,8 @@ class PendulumNominal(MechanicalNominalModel):
         dq = x[..., 1] / p.inertia
         return np.stack([dq, u[..., 0] - p.damping * dq - p.mgl * np.sin(x[..., 0])], axis=-1)
 
-    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802 - the physics name
-        """Mass matrix [[J]] (kg·m²); for q of shape (..., 1) returns (..., 1, 1)."""
-        q = np.asarray(q, dtype=np.float64)
-        return np.full(q.shape[:-1] + (1, 1), self.params.inertia)
-
     def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """Damping and gravity torque b dq + mgl sin q (N·m), shaped like dq."""
         p = self.params
         return p.damping * np.asarray(dq, dtype=np.float64) + \
             p.mgl * np.sin(np.asarray(q, dtype=np.float64))
-
-    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        """Torque the nominal needs for the motion: J ddq + b dq + mgl sin q (N·m); rows ok."""
-        return self.params.inertia * np.asarray(ddq, dtype=np.float64) + self.bias(q, dq)
-
-    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """State residual g (…, 2) → left-out torque tau_d = −g[1:] (N·m)."""
-        return -np.asarray(g, dtype=np.float64)[..., 1:]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simgap.models.base import MechanicalNominalModel, validate_positive
+from simgap.models.base import OneDofMechanicalModel, validate_positive
 
 #: Units of (position, velocity, effort, inertia, momentum) per joint kind.
 JOINT_UNITS = {
@@ -55,7 +55,7 @@ class RigidAxisParams:
                              f"got {self.joint!r}")
 
 
-class RigidAxisNominal(MechanicalNominalModel):
+class RigidAxisNominal(OneDofMechanicalModel):
     """Nominal model of a 1-DOF rigid mass/rotor driven by a force/torque ``u``.
 
     Args:
@@ -93,6 +93,11 @@ class RigidAxisNominal(MechanicalNominalModel):
                 f"channel={self.channel_names[0]!r}, name={self.name!r})")
 
     @property
+    def joint_inertia(self) -> float:
+        """M (kg, prismatic) or J (kg·m², revolute)."""
+        return self.params.mass
+
+    @property
     def position_units(self) -> tuple[str, ...]:
         """Unit of q (m or rad)."""
         return (self.obs_units[0],)
@@ -102,48 +107,12 @@ class RigidAxisNominal(MechanicalNominalModel):
         """Unit of dq (m/s or rad/s)."""
         return (self.obs_units[1],)
 
-    @property
-    def residual_names(self) -> tuple[str, ...]:
-        """Left-out force/torque at the joint."""
-        return ("tau_d1",)
-
-    @property
-    def residual_units(self) -> tuple[str, ...]:
-        """N (prismatic) or N·m (revolute)."""
-        return self.input_units
-
-    def state(self, obs: np.ndarray) -> np.ndarray:
-        """Observation (q, dq) → identifier state (q, p = M dq)."""
-        out = np.array(obs, dtype=np.float64)
-        out[..., 1] = self.params.mass * out[..., 1]
-        return out
-
-    def observation(self, x: np.ndarray) -> np.ndarray:
-        """Map the identifier state (q, p) to the observation (q, dq = p / M)."""
-        out = np.array(x, dtype=np.float64)
-        out[..., 1] = out[..., 1] / self.params.mass
-        return out
-
     def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Return the nominal derivative (p/M, u), the 1-DOF case of thesis eq. 2.3 (rows ok)."""
         x = np.asarray(x, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
         return np.stack([x[..., 1] / self.params.mass, u[..., 0]], axis=-1)
 
-    def M(self, q: np.ndarray) -> np.ndarray:  # noqa: N802 - the physics name
-        """Mass matrix [[M]] (kg or kg·m²); for q of shape (..., 1) returns (..., 1, 1)."""
-        q = np.asarray(q, dtype=np.float64)
-        return np.full(q.shape[:-1] + (1, 1), self.params.mass)
-
     def bias(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """No velocity or gravity terms: zeros shaped like dq (N or N·m)."""
         return np.zeros(np.broadcast_shapes(np.shape(q), np.shape(dq)))
-
-    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        """Force the nominal needs for the motion: M ddq (N or N·m); rows allowed."""
-        ddq = np.asarray(ddq, dtype=np.float64)
-        return self.params.mass * ddq + self.bias(q, dq)
-
-    def physical_residual(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """State residual g (…, 2) → left-out force tau_d = −g[1:] (N or N·m)."""
-        return -np.asarray(g, dtype=np.float64)[..., 1:]
