@@ -1014,6 +1014,13 @@ class Fitter:
           (the yaw equation sees Iz·dr/dt), so yaw acceleration in the data decides;
           steady turns have none.
           The combination (its value relative to the nominal tire laws) is reported.
+        * An effect with an ``excitation`` rule the recorded input does not meet at the
+          fitted values (a dead zone whose command never dwells inside ±d, or seldom
+          passes through it), judged on the channel's held input over the recording's
+          valid rows (the input's excitation, not the split's).
+        * An effect with ``confusable_with`` partners at the same channel (a dead zone
+          beside a torque bias and a Coulomb friction): undetermined with them fitted
+          beside it by the same test as the symmetry partners (:meth:`_determined`).
         """
         out: dict[tuple, str] = {}
         shares = self._directions()
@@ -1030,6 +1037,31 @@ class Fitter:
                               "where a constant and an effect whose sign follows the "
                               "direction are the same; record both directions to tell them "
                               "apart")
+        held = self.prepared.held_input
+        for i, t in enumerate(fit.terms):
+            if t not in hyp or t.key in out or t.effect.excitation is None or \
+                    held is None or t.index is None:
+                continue
+            valid = self.prepared.valid
+            u = held[:, t.index] if valid is None else held[np.asarray(valid, bool), t.index]
+            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u)
+            if why:
+                out[t.key] = f"{t.effect.label} at {t.channel} is not identifiable: {why}"
+        for t in hyp:
+            if t.key in out or not t.effect.confusable_with:
+                continue
+            partners = [c for c in candidates if c.index == t.index
+                        and c.effect.name in t.effect.confusable_with]
+            missing = [c for c in partners if c.key not in {u.key for u in fit.terms}]
+            both = self.fit_new(fit, missing, full=False) if missing else fit
+            verdict = self._determined(both, t, fit)
+            if verdict:
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
+                              + " and ".join(f"{p.effect.label} at {p.channel}"
+                                             for p in partners)
+                              + f" fitted beside it, {verdict}; their regressors coincide "
+                              "on this data (excite the channel differently to separate "
+                              "them)")
         for t in hyp:
             partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with]
             if not partners or t.key in out:

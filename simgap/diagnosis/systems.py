@@ -702,15 +702,19 @@ class MechanicalSystem:
 
     def _delayed(self, prepared: Prepared, effects, rows: np.ndarray
                  ) -> tuple[list, np.ndarray | None]:
-        """(effects without input delays, per-row held input with the delays or None)."""
-        delays = [(j, float(nl[0])) for eff, j, lin, nl in effects
-                  if getattr(eff, "on_input", False)]
-        if not delays:
+        """(effects not on the input, per-row acting input or None).
+
+        The acting input is the held input passed, per channel and in the effects' order,
+        through each ``on_input`` effect's ``input_map`` (a delay, a dead zone).
+        """
+        maps = [(eff, j, np.asarray(nl, dtype=np.float64)) for eff, j, lin, nl in effects
+                if getattr(eff, "on_input", False)]
+        if not maps:
             return list(effects), None
         t, held = prepared.t, prepared.held_input
         u = held.copy()
-        for j, tau in delays:
-            u[:, j] = np.interp(t - tau, t, held[:, j])
+        for eff, j, nl in maps:
+            u[:, j] = eff.input_map(nl, t, u[:, j])
         rest = [e for e in effects if not getattr(e[0], "on_input", False)]
         return rest, u[rows]
 
