@@ -652,8 +652,10 @@ DEAD_ZONE_MIN_PASSES = 4
 
 
 def _dead_zone_excitation(effect, lin, nl, u):
-    """Why the command ``u`` (the channel's held input, in time order) cannot identify a
-    dead zone of the fitted half-width ``nl[0]`` ("" when it can)."""
+    """Why the held command ``u`` cannot identify a dead zone of half-width ``nl[0]``.
+
+    ``u``: the channel's held input in time order; returns "" when it can.
+    """
     d = float(nl[0])
     inside = int(np.sum(np.abs(u) < d))
     side = np.sign(u[np.abs(u) > d])
