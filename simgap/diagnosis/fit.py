@@ -1015,9 +1015,10 @@ class Fitter:
           steady turns have none.
           The combination (its value relative to the nominal tire laws) is reported.
         * An effect with an ``excitation`` rule the recorded input does not meet at the
-          fitted values (a dead zone whose command never dwells inside ±d, or seldom
-          passes through it), judged on the channel's held input over the recording's
-          valid rows (the input's excitation, not the split's).
+          fitted values (a dead zone whose command seldom passes through ±d, or dwells
+          inside it too little to tell it from a relay), judged on the channel's held
+          input over the recording's valid rows (the input's excitation, not the split's)
+          against the channel's noise floor per independent sample.
         * An effect with ``confusable_with`` partners at the same channel (a dead zone
           beside a torque bias and a Coulomb friction): undetermined with them fitted
           beside it by the same test as the symmetry partners (:meth:`_determined`).
@@ -1044,7 +1045,11 @@ class Fitter:
                 continue
             valid = self.prepared.valid
             u = held[:, t.index] if valid is None else held[np.asarray(valid, bool), t.index]
-            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u)
+            # neighbouring filtered samples are correlated over the window: one
+            # independent sample per window // 2 rows, as the fit's thinning assumes
+            step = max(1, self.prepared.smoother.window // 2)
+            noise = float(self.prepared.noise_rms[t.index]) * float(np.sqrt(step))
+            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u, noise)
             if why:
                 out[t.key] = f"{t.effect.label} at {t.channel} is not identifiable: {why}"
         for t in hyp:

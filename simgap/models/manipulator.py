@@ -643,30 +643,39 @@ def _dead_zone_input(nl, t, u):
     return dead_zone.py_func(u, nl[0])
 
 
-#: Samples the command must spend inside the dead band ±d (grid rows: 40 ms at 500 Hz),
-#: and passes through the band from one side to the other, for a dead zone to be named:
-#: inside, the dead zone takes the whole command (what tells it from a relay d·sign(u));
-#: beyond it on both sides, it is d·sign(u) (what tells it from a constant torque bias).
-DEAD_ZONE_MIN_DWELL = 20
+#: Passes of the command through the dead band ±d (from one side to the other) a dead zone
+#: needs to be named: where the command stays on one side, a dead zone is d·sign(u), a
+#: constant torque bias.
 DEAD_ZONE_MIN_PASSES = 4
+#: Level of the dwell test: inside ±d the dead zone takes the whole command (contribution
+#: u), where a relay d·sign(u) would take d; the command must dwell there long enough that
+#: the expected χ² statistic of that difference against the noise (Σ (d − |u|)² / σ² over
+#: the samples inside, σ per independent sample) reaches the χ²(1) critical value.
+DEAD_ZONE_DWELL_ALPHA = 0.01
 
 
-def _dead_zone_excitation(effect, lin, nl, u):
+def _dead_zone_excitation(effect, lin, nl, u, noise):
     """Why the held command ``u`` cannot identify a dead zone of half-width ``nl[0]``.
 
-    ``u``: the channel's held input in time order; returns "" when it can.
+    ``u``: the channel's held input in time order; ``noise``: the channel's residual noise
+    std per independent sample (N·m or N). Returns "" when it can.
     """
+    from scipy.stats import chi2
+
     d = float(nl[0])
-    inside = int(np.sum(np.abs(u) < d))
+    inside = np.abs(u) < d
     side = np.sign(u[np.abs(u) > d])
     passes = int(np.sum(side[1:] != side[:-1]))
     if passes < DEAD_ZONE_MIN_PASSES:
         return (f"the command passes through the fitted dead band ±{d:.3g} {passes} times "
                 f"(at least {DEAD_ZONE_MIN_PASSES} needed): where it stays on one side a "
                 "dead zone is a constant torque bias")
-    if inside < DEAD_ZONE_MIN_DWELL:
-        return (f"the command dwells inside the fitted dead band ±{d:.3g} on {inside} of "
-                f"{u.size} samples (at least {DEAD_ZONE_MIN_DWELL} needed): a dead zone "
+    stat = float(np.sum((d - np.abs(u[inside])) ** 2)) / max(noise, 1e-300) ** 2
+    crit = float(chi2.isf(DEAD_ZONE_DWELL_ALPHA, 1))
+    if not stat >= crit:
+        return (f"the command dwells inside the fitted dead band ±{d:.3g} on "
+                f"{int(np.sum(inside))} of {u.size} samples: too little to tell a dead zone "
+                f"from a relay d·sign(u) (expected χ² {stat:.3g} < {crit:.3g}); a dead zone "
                 "needs commands that pass through and dwell near zero")
     return ""
 

@@ -97,8 +97,9 @@ def test_too_few_passes_through_the_band_is_not_identifiable() -> None:
 
 def test_no_dwell_inside_the_band_is_not_identifiable() -> None:
     """The proof's draw for seed 4 at joint 1 (d = 0.10 N·m): the joint-1 command carries
-    the gravity torque and sits inside ±d on 17 of ~10,000 samples; the diagnosis says so
-    instead of naming a dead zone it cannot tell from a relay."""
+    the gravity torque and sits inside ±d on 17 of ~10,000 samples (expected χ² of the
+    dead-zone-vs-relay difference 3.1 < 6.63); the diagnosis says so instead of naming a
+    dead zone it cannot tell from a relay. (Seeds 0-3's draws at joint 1 are named.)"""
     inj = draw("dead_zone", np.random.default_rng(1004))
     inj = InjectedEffect(effect="dead_zone", channel="joint1", params=inj.params)
     rep = _diagnosed([inj], 4, 20.0)
@@ -111,11 +112,14 @@ def test_no_dwell_inside_the_band_is_not_identifiable() -> None:
 def test_excitation_rule() -> None:
     rule = VOCABULARY["dead_zone"].excitation
     t = np.linspace(0.0, 10.0, 5001)
-    d = np.array([0.2])
-    assert rule(None, np.zeros(0), d, np.sin(2 * np.pi * 0.5 * t)) == ""
-    assert "constant torque bias" in rule(None, np.zeros(0), d, 1.0 + np.sin(t))
-    square = np.sign(np.sin(2 * np.pi * 0.5 * t)) + (t == 0)   # jumps over the band
-    assert "dwells inside" in rule(None, np.zeros(0), d, square)
+    d, lin = np.array([0.2]), np.zeros(0)
+    sine = np.sin(2 * np.pi * 0.5 * t)
+    assert rule(None, lin, d, sine, 0.01) == ""
+    assert "constant torque bias" in rule(None, lin, d, 1.0 + np.sin(t), 0.01)
+    square = np.sign(sine) + (t == 0)           # jumps over the band: never inside
+    assert "dwells inside" in rule(None, lin, d, square, 0.01)
+    # the dwell needed grows with the noise: the same command, 200x noisier
+    assert "dwells inside" in rule(None, lin, d, sine, 2.0)
 
 
 @pytest.mark.parametrize(("name", "channel", "params"), [
