@@ -122,3 +122,24 @@ def test_map_round_trip_and_bad_value() -> None:
         ColumnMap.from_dict({"t": "time", "input_hold": "held"})
     with pytest.raises(ColumnMapError, match="input_hold"):
         RecordingSchema(canonical=("t", "q"), input_hold="held")
+
+
+def test_mjcf_column_map_and_argument_declare_it(tmp_path, seen) -> None:
+    pytest.importorskip("mujoco")
+    from pathlib import Path
+
+    from simgap.diagnosis.mujoco import diagnose_mjcf, load_mjcf_inputs
+
+    xml = Path(__file__).resolve().parents[2] / "examples" / "mujoco" / "arm2dof.xml"
+    rec = generate("manipulator2dof", [], seed=3, duration=2.0)
+    cols = {"t": rec["t"], "q_shoulder": rec["q1"], "q_elbow": rec["q2"],
+            "tau_shoulder": rec["tau1"], "tau_elbow": rec["tau2"]}
+    log = tmp_path / "mj.csv"
+    write_recording(log, cols)
+    system, _ = load_mjcf_inputs(xml, log, ColumnMap.of(input_hold="sample"))
+    assert system.columns.input_hold == "sample"
+    system, _ = load_mjcf_inputs(xml, log)
+    assert system.columns.input_hold == "auto"
+    with pytest.raises(_Stop):
+        diagnose_mjcf(xml, log, input_hold="zoh")
+    assert seen["hold"] == "zoh"
