@@ -22,7 +22,9 @@ of many is picked on the same data), when the validation part holds information 
 parameter sits on a plausibility limit. Among candidates the largest per-channel share of
 the held-out loss removed wins (every channel counts by its own remaining error, so
 one large channel or a sum over both axles does not decide); within :data:`TIE` of it the
-hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring). Besides
+hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring), then one
+that is not a declared look-alike (``FitSpec.confusable_with``) of another in the tie (a
+dead zone on a command of one sign ties with the torque bias it equals there). Besides
 single terms, each :data:`FAMILIES` (friction: Coulomb and viscous) is tried as one joint
 hypothesis at each channel, so that corrections that only make sense together (a nominal
 damping that is too high, a signed viscous correction, beside a missing Coulomb friction)
@@ -736,8 +738,13 @@ class Fitter:
                 break
             best = max(gains[i] for i in ok)
             near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
+            tied = {t.key for i in near for t in trials[i][0]}
+            # a term whose declared look-alike at its channel ties with it yields to it (a
+            # dead zone on a command of one sign is the torque bias it ties with)
+            alike = {i: any((name, t.index) in tied for t in trials[i][0]
+                            for name in t.effect.confusable_with) for i in near}
             pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
-                                            -gains[i]))
+                                            alike[i], -gains[i]))
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)

@@ -122,6 +122,18 @@ def test_excitation_rule() -> None:
     assert "dwells inside" in rule(None, lin, d, sine, 2.0)
 
 
+def test_a_bias_on_a_one_sign_command_is_named_not_the_dead_zone() -> None:
+    """Joint 1's command in seed 1's first 8 s never changes sign: a dead zone d and a
+    torque bias d are the same function there and tie to 15 digits. The dead zone yields
+    to its declared look-alike (``confusable_with``) instead of being picked, found not
+    identifiable and kept as a combination that hides the bias (the quick proof case)."""
+    inj = draw("torque_bias", np.random.default_rng(1001))
+    assert inj.channel == "joint1"
+    rep = _diagnosed([inj], 1, QUICK)
+    assert [(e["effect"], e["channel"]) for e in rep.effects] == [("torque_bias", "joint1")]
+    assert _tried(rep, "dead_zone", "joint1")["decision"] == "rejected"
+
+
 @pytest.mark.parametrize(("name", "channel", "params"), [
     ("coulomb_friction", "joint2", {"Fc": 0.2}),
     ("torque_bias", "joint2", {"tau0": 0.2}),
