@@ -43,7 +43,7 @@ import pandas as pd
 from simgap.errors import ColumnMapError, RecordingError
 from simgap.limits import check_recording_file
 from simgap.outputs import write_file
-from simgap.schema import RecordingSchema
+from simgap.schema import RecordingSchema, check_input_hold
 
 #: Fewest samples any diagnosis can say something about.
 MIN_SAMPLES = 50
@@ -326,11 +326,21 @@ class ColumnMap:
     scale=35.15))``; a string means ``Column(source=...)``, a number ``Column(constant=...)``.
     From JSON (``simgap diagnose --columns map.json``) with :meth:`from_dict` /
     :meth:`from_json`: ``{"t": "time", "delta_f": {"source": "wheel_deg", "scale": 0.00109}}``.
+
+    Attributes:
+        columns: canonical name -> :class:`Column`.
+        input_hold: how the logged inputs relate to the acting ones (``"zoh"``: held until
+            the next sample, ``"sample"``: point samples, ``"auto"``: decided from the
+            data); ``None``: not declared here (the model's recording schema decides).
+            In JSON, the key ``"input_hold"`` beside the columns.
     """
 
     columns: Mapping[str, Column] = field(default_factory=dict)
+    input_hold: str | None = None
 
     def __post_init__(self) -> None:
+        if self.input_hold is not None:
+            check_input_hold(self.input_hold)
         for key, col in self.columns.items():
             if not isinstance(col, Column):
                 raise ColumnMapError(f"column map entry {key!r} must be a Column, got "
@@ -338,8 +348,12 @@ class ColumnMap:
         object.__setattr__(self, "columns", MappingProxyType(dict(self.columns)))
 
     @classmethod
-    def of(cls, **columns: str | float | Column) -> ColumnMap:
-        """Column map from keyword arguments (canonical name = source, number or Column)."""
+    def of(cls, *, input_hold: str | None = None, **columns: str | float | Column
+           ) -> ColumnMap:
+        """Column map from keyword arguments (canonical name = source, number or Column).
+
+        ``input_hold``: see the class attributes (not a column).
+        """
         out: dict[str, Column] = {}
         for key, spec in columns.items():
             if isinstance(spec, Column):
@@ -351,7 +365,7 @@ class ColumnMap:
             else:
                 raise ColumnMapError(f"column map entry {key!r} must be a column name, a "
                                      f"number or a Column, got {spec!r}")
-        return cls(out)
+        return cls(out, input_hold=input_hold)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, label: str = "column map") -> ColumnMap:
@@ -364,7 +378,14 @@ class ColumnMap:
             raise ColumnMapError(f"{label}: expected an object of canonical column -> source, "
                                  f"got {type(data).__name__}")
         out: dict[str, str | float | Column] = {}
+        hold = None
         for key, spec in data.items():
+            if key == "input_hold":  # how the inputs were logged, not a column
+                try:
+                    hold = check_input_hold(spec)
+                except ColumnMapError as err:
+                    raise ColumnMapError(f"{label}: {err}") from None
+                continue
             if isinstance(spec, Mapping):
                 unknown = [k for k in spec if k not in _COLUMN_KEYS]
                 if unknown:
@@ -377,7 +398,7 @@ class ColumnMap:
             else:
                 out[key] = spec
         try:
-            return cls.of(**out)
+            return cls.of(input_hold=hold, **out)
         except ColumnMapError as err:
             raise ColumnMapError(f"{label}: {err}") from None
 
@@ -405,6 +426,8 @@ class ColumnMap:
             out[key] = {k: v for k, v in fields.items()
                         if v is not None and (k in ("source", "constant")
                                               or v != getattr(default, k))}
+        if self.input_hold is not None:
+            out["input_hold"] = self.input_hold
         return out
 
     @property
@@ -452,7 +475,7 @@ class ColumnMap:
         for c in schema.canonical:
             if c not in out and (c not in schema.derivable or c in have):
                 out[c] = Column(source=c)
-        return ColumnMap(out)
+        return ColumnMap(out, input_hold=self.input_hold)
 
     def apply(self, frame: pd.DataFrame, *, label: str = "recording",
               min_samples: int = MIN_SAMPLES) -> Recording:

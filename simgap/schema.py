@@ -11,6 +11,22 @@ from typing import Any
 
 from simgap.errors import ColumnMapError
 
+#: How a logged input relates to the input that acted: held until the next sample (zero-
+#: order hold), a point sample, or not declared (the diagnosis decides from the data).
+INPUT_HOLDS = ("auto", "zoh", "sample")
+
+
+def check_input_hold(value: Any) -> str:
+    """``value`` if it is one of :data:`INPUT_HOLDS`.
+
+    Raises:
+        ColumnMapError: any other value (one line naming the choices).
+    """
+    if value not in INPUT_HOLDS:
+        raise ColumnMapError(f"input_hold must be one of {', '.join(INPUT_HOLDS)}, got "
+                             f"{value!r}")
+    return value
+
 
 @dataclass(frozen=True, kw_only=True)
 class RecordingSchema:
@@ -21,13 +37,16 @@ class RecordingSchema:
             ``t, q1, q2, dq1, dq2, tau1, tau2`` for the arm; ``t, q, dq, u`` for a 1-DOF axis).
         derivable: canonical columns the diagnosis may compute when the file lacks them
             (velocities, by differentiating positions).
-        input_hold: ``"zoh"`` if each logged input is held until the next sample, else
-            ``"sample"``.
+        input_hold: ``"zoh"`` if each logged input is held until the next sample,
+            ``"sample"`` if it is a point sample, ``"auto"`` (default: not declared) to let
+            the diagnosis decide from the data. A declared value reaches the diagnosis
+            (``AdapterColumns.input_hold``) unless a column map or ``--input-hold`` says
+            otherwise.
     """
 
     canonical: tuple[str, ...]
     derivable: tuple[str, ...] = ()
-    input_hold: str = "zoh"
+    input_hold: str = "auto"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "canonical", tuple(self.canonical))
@@ -38,9 +57,7 @@ class RecordingSchema:
         if stray:
             raise ColumnMapError(f"derivable column {stray[0]!r} is not one of the canonical "
                                  f"columns {list(self.canonical)}")
-        if self.input_hold not in ("zoh", "sample"):
-            raise ColumnMapError(f"input_hold must be 'zoh' or 'sample', got "
-                                 f"{self.input_hold!r}")
+        check_input_hold(self.input_hold)
 
     @property
     def required(self) -> tuple[str, ...]:

@@ -49,7 +49,7 @@ def _load_params(path: Path | None) -> dict | None:
 
 def _diagnose_batch(out: Path, recordings: list[Path], model: str, overrides: dict | None,
                     columns: Path | None, figures: bool, jobs: int, ray: bool | str,
-                    inputs: tuple) -> None:
+                    inputs: tuple, input_hold: str | None = None) -> None:
     """``diagnose LOG1 LOG2 ...``: one job per log, then OUT/summary.{json,md}."""
     from simgap._log import log
     from simgap.diagnosis.sweep import diagnose_batch
@@ -59,7 +59,7 @@ def _diagnose_batch(out: Path, recordings: list[Path], model: str, overrides: di
         with progress_bar(len(recordings), "diagnose") as tick:
             res = diagnose_batch(out, recordings, model, params=overrides, columns=columns,
                                  figures=figures, jobs=jobs, ray=ray or None, inputs=inputs,
-                                 progress=tick)
+                                 progress=tick, input_hold=input_hold)
     except SimgapError as err:
         _fail(str(err))
     for f in res["failed"]:
@@ -110,7 +110,13 @@ def register(app: typer.Typer) -> None:
         columns: Path = typer.Option(None, "--columns", help="JSON column map: canonical "
                                      "column -> file column, number or {\"source\", "
                                      "\"scale\", \"offset\", \"constant\", \"despike\"}; "
-                                     "unnamed columns keep their names."),
+                                     "unnamed columns keep their names; \"input_hold\": "
+                                     "\"zoh\"|\"sample\" says how inputs were logged."),
+        input_hold: str = typer.Option(None, "--input-hold", help="How the logged inputs "
+                                       "relate to the acting ones: zoh (held until the next "
+                                       "sample), sample (point samples) or auto (decided "
+                                       "from the data); default: the column map's, else "
+                                       "the model's, else auto."),
         out: Path = typer.Option(None, "--out", help="Report folder (default "
                                  "./simgap-report/<recording stem>/; several logs: "
                                  "./simgap-report/diagnose/)."),
@@ -156,20 +162,22 @@ def register(app: typer.Typer) -> None:
             check_folder_target(target, inputs=inputs)
         except SimgapError as err:
             _fail(str(err))
+        if input_hold is not None and input_hold not in ("auto", "zoh", "sample"):
+            _fail(f"--input-hold must be auto, zoh or sample, got {input_hold!r}")
         overrides = _load_params(params)
         if overrides and model_file is not None:
             _fail(f"{params}: --params applies to built-in models only; set the "
                   f"parameters in {model_file}")
         if batch:
             _diagnose_batch(target, recordings, model, overrides, columns, figures, jobs,
-                            ray_address or ray, (params, columns, model_file))
+                            ray_address or ray, (params, columns, model_file), input_hold)
             return
         from simgap.diagnosis.report import summary_lines, write_report
         from simgap.diagnosis.sweep import diagnose_any
 
         try:
             with stage(f"diagnosing {recording.name} against {model}"):
-                report = diagnose_any(recording, model, overrides, columns)
+                report = diagnose_any(recording, model, overrides, columns, input_hold)
             with stage(f"writing the report to {target}"):
                 write_report(report, target, figures=figures, inputs=inputs)
         except SimgapError as err:

@@ -22,7 +22,9 @@ of many is picked on the same data), when the validation part holds information 
 parameter sits on a plausibility limit. Among candidates the largest per-channel share of
 the held-out loss removed wins (every channel counts by its own remaining error, so
 one large channel or a sum over both axles does not decide); within :data:`TIE` of it the
-hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring). Besides
+hypothesis with fewer parameters wins (Coulomb before Stribeck, bias before spring), then one
+that is not a declared look-alike (``FitSpec.confusable_with``) of another in the tie (a
+dead zone on a command of one sign ties with the torque bias it equals there). Besides
 single terms, each :data:`FAMILIES` (friction: Coulomb and viscous) is tried as one joint
 hypothesis at each channel, so that corrections that only make sense together (a nominal
 damping that is too high, a signed viscous correction, beside a missing Coulomb friction)
@@ -736,8 +738,13 @@ class Fitter:
                 break
             best = max(gains[i] for i in ok)
             near = [i for i in ok if gains[i] >= best - TIE * abs(best)]
+            tied = {t.key for i in near for t in trials[i][0]}
+            # a term whose declared look-alike at its channel ties with it yields to it (a
+            # dead zone on a command of one sign is the torque bias it ties with)
+            alike = {i: any((name, t.index) in tied for t in trials[i][0]
+                            for name in t.effect.confusable_with) for i in near}
             pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
-                                            -gains[i]))
+                                            alike[i], -gains[i]))
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)
@@ -1014,6 +1021,14 @@ class Fitter:
           (the yaw equation sees Iz·dr/dt), so yaw acceleration in the data decides;
           steady turns have none.
           The combination (its value relative to the nominal tire laws) is reported.
+        * An effect with an ``excitation`` rule the recorded input does not meet at the
+          fitted values (a dead zone whose command seldom passes through ±d, or dwells
+          inside it too little to tell it from a relay), judged on the channel's held
+          input over the recording's valid rows (the input's excitation, not the split's)
+          against the channel's noise floor per independent sample.
+        * An effect with ``confusable_with`` partners at the same channel (a dead zone
+          beside a torque bias and a Coulomb friction): undetermined with them fitted
+          beside it by the same test as the symmetry partners (:meth:`_determined`).
         """
         out: dict[tuple, str] = {}
         shares = self._directions()
@@ -1030,6 +1045,35 @@ class Fitter:
                               "where a constant and an effect whose sign follows the "
                               "direction are the same; record both directions to tell them "
                               "apart")
+        held = self.prepared.held_input
+        for i, t in enumerate(fit.terms):
+            if t not in hyp or t.key in out or t.effect.excitation is None or \
+                    held is None or t.index is None:
+                continue
+            valid = self.prepared.valid
+            u = held[:, t.index] if valid is None else held[np.asarray(valid, bool), t.index]
+            # neighbouring filtered samples are correlated over the window: one
+            # independent sample per window // 2 rows, as the fit's thinning assumes
+            step = max(1, self.prepared.smoother.window // 2)
+            noise = float(self.prepared.noise_rms[t.index]) * float(np.sqrt(step))
+            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u, noise)
+            if why:
+                out[t.key] = f"{t.effect.label} at {t.channel} is not identifiable: {why}"
+        for t in hyp:
+            if t.key in out or not t.effect.confusable_with:
+                continue
+            partners = [c for c in candidates if c.index == t.index
+                        and c.effect.name in t.effect.confusable_with]
+            missing = [c for c in partners if c.key not in {u.key for u in fit.terms}]
+            both = self.fit_new(fit, missing, full=False) if missing else fit
+            verdict = self._determined(both, t, fit)
+            if verdict:
+                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: with "
+                              + " and ".join(f"{p.effect.label} at {p.channel}"
+                                             for p in partners)
+                              + f" fitted beside it, {verdict}; their regressors coincide "
+                              "on this data (excite the channel differently to separate "
+                              "them)")
         for t in hyp:
             partners = [c for c in candidates if c.effect.name in t.effect.symmetric_with]
             if not partners or t.key in out:

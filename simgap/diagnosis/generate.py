@@ -12,7 +12,8 @@ diagnosis never reads either.
   (:func:`simgap.models.manipulator.plant_step`, 20 RK4 sub-steps per 2 ms so that the stiff
   tanh friction is integrated accurately). ``tau`` is the torque the motor applied (the
   controller output, held over the sample period; an ``input_delay`` makes the plant feel
-  it d seconds later, sub-steps split where the delayed command switches).
+  it d seconds later, sub-steps split where the delayed command switches; a ``dead_zone``
+  makes the joint feel u − clip(u, −d, d) of the logged command u).
 * ``bicycle``: scripted steering (random sine segments, slalom, chirp or steps) at a slowly
   varying speed; ``delta_f``/``delta_r`` are the *commanded* angles (a steering lag makes the
   road-wheel angle lag them). Plant: :func:`simgap.models.bicycle.plant_step`.
@@ -132,7 +133,8 @@ def waypoint_reference(t: np.ndarray, seed: int, *,
 
 @njit(cache=True)
 def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, kp, kd, dt,
-                      n_sub, s0, delay_steps, delay_frac, cuts):  # pragma: no cover - compiled
+                      n_sub, s0, delay_steps, delay_frac, cuts,
+                      dead):  # pragma: no cover - compiled
     n = q_ref.shape[0]
     states = np.empty((n, 4))
     meas = np.empty((n, 4))
@@ -155,6 +157,9 @@ def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, 
         u[1] = mv[1] + bias[1]
         taus[k] = u
         if cuts.shape[0] == 0:
+            for j in range(2):  # the actuator's dead zone: the logged command is u
+                if dead[j] > 0.0:
+                    u[j] = man.dead_zone(u[j], dead[j])
             s = rk4(man.plant_derivative, s, u, theta, dt, n_sub)
             continue
         # transport delay d_j = (m_j + f_j)·dt of joint j's held command: over this sample
@@ -165,6 +170,8 @@ def _manipulator_loop(theta, la_nom, q_ref, dq_ref, ddq_ref, noise_q, noise_dq, 
             for j in range(2):
                 row = k - delay_steps[j] - (1 if 0.5 * (a + b) < delay_frac[j] else 0)
                 v[j] = taus[max(row, 0), j]
+                if dead[j] > 0.0:
+                    v[j] = man.dead_zone(v[j], dead[j])
             s = rk4(man.plant_derivative, s, v, theta, (b - a) * dt,
                     max(1, int(round(n_sub * (b - a)))))
     return states, meas, taus
@@ -223,7 +230,8 @@ def generate_manipulator(effects: Sequence[InjectedEffect] = (), *, duration: fl
     s0 = np.array([q_ref[0, 0], q_ref[0, 1], 0.0, 0.0])
     _, meas, taus = _manipulator_loop(theta, p.array, q_ref, dq_ref, ddq_ref, nq, ndq,
                                       float(kp), float(kd), dt, int(n_sub), s0,
-                                      delay_steps, delay_frac, cuts)
+                                      delay_steps, delay_frac, cuts,
+                                      np.asarray(plant.folded.extras["dead_zone"]))
     tau_log = taus + rng.normal(0.0, noise_tau, size=taus.shape) if noise_tau > 0 else taus
     cols = {"t": t, "q1": meas[:, 0], "q2": meas[:, 1], "dq1": meas[:, 2], "dq2": meas[:, 3],
             "tau1": tau_log[:, 0], "tau2": tau_log[:, 1]}

@@ -166,27 +166,28 @@ def load_mjcf_inputs(xml: str | Path, recording: str | Path | Recording,
     ``recording`` may be a file or an in-memory :class:`~simgap.recordings.Recording`.
     """
     model = from_mjcf(Path(xml), joints=joints)
+    user = None if columns is None else (columns if isinstance(columns, ColumnMap)
+                                         else ColumnMap.from_json(columns))
+    hold = None if user is None else user.input_hold  # reaches the adapter's columns
     if isinstance(recording, Recording):
         cols = default_columns(model, list(recording.columns))
-        if columns is not None:
-            cols.update((columns if isinstance(columns, ColumnMap)
-                         else ColumnMap.from_json(columns)).columns)
-        model = with_columns(model, ColumnMap(cols))
+        if user is not None:
+            cols.update(user.columns)
+        model = with_columns(model, ColumnMap(cols, input_hold=hold))
         return MujocoSystem(model), conform(recording, RecordingSchema.of(model),
                                             column_map_of(model))
     recording = Path(recording)
     header = list(_read_table(recording).columns) if recording.is_file() else []
     cols = default_columns(model, header)
-    if columns is not None:
-        cols.update((columns if isinstance(columns, ColumnMap)
-                     else ColumnMap.from_json(columns)).columns)
+    if user is not None:
+        cols.update(user.columns)
     missing = [c for c in model.recording_columns
                if c not in cols and c not in model.derivable_columns]
     if missing and recording.is_file():
         raise CustomModelError(f"{recording}: no column {missing[0]!r} (the MJCF "
                                f"{Path(xml).name} needs {', '.join(missing)}; map yours with "
                                "--columns map.json)")
-    model = with_columns(model, ColumnMap(cols))
+    model = with_columns(model, ColumnMap(cols, input_hold=hold))
     return MujocoSystem(model), read(recording, RecordingSchema.of(model),
                                      column_map_of(model))
 

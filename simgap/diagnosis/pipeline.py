@@ -46,7 +46,7 @@ from simgap.diagnosis.fit import ALPHA, Fitter, Selection, Term
 from simgap.diagnosis.forms import Prepared
 from simgap.diagnosis.shares import explained_section
 from simgap.diagnosis.significance import StructureTest, structure_test
-from simgap.diagnosis.systems import BicycleSystem, MechanicalSystem
+from simgap.diagnosis.systems import AdapterColumns, BicycleSystem, MechanicalSystem
 from simgap.diagnosis.user_models import check_model, is_adapter, load_model_file
 from simgap.diagnosis.user_models import column_map_of as _column_map_of
 from simgap.diagnosis.validation import gap_segments
@@ -64,6 +64,7 @@ from simgap.recordings import (
     recording_from_arrays,
 )
 from simgap.recordings import read as read_columns
+from simgap.schema import check_input_hold
 from simgap.systems import get_system, system_of_file, system_of_model
 
 MODELS = ("manipulator2dof", "bicycle")
@@ -207,6 +208,25 @@ def _adapter(model: Any, recorded: set[str] | None) -> Any:
     return MechanicalSystem(model, velocities=velocities)
 
 
+def _column_map(columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None
+                ) -> ColumnMap | None:
+    """A column map from its object, JSON-dict or JSON-file form (``None`` stays ``None``)."""
+    if isinstance(columns, Mapping):
+        return ColumnMap.from_dict(columns)
+    if isinstance(columns, str | os.PathLike):
+        return ColumnMap.from_json(columns)
+    return columns
+
+
+def _with_hold(system: Any, hold: str | None) -> Any:
+    """The adapter with a declared input hold in its columns (``None``: as it is)."""
+    cols = getattr(system, "columns", None)
+    if hold is None or not isinstance(cols, AdapterColumns) or cols.input_hold == hold:
+        return system
+    system.columns = dataclasses.replace(cols, input_hold=check_input_hold(hold))
+    return system
+
+
 def _read(recording: Recording | str | os.PathLike, model: Any,
           columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None) -> Recording:
     """The recording in the model's canonical columns (validated like a file).
@@ -214,10 +234,7 @@ def _read(recording: Recording | str | os.PathLike, model: Any,
     An explicit ``columns`` map always applies. The model's own ``column_map`` applies to
     files, and to in-memory recordings unless they already hold the canonical columns.
     """
-    if isinstance(columns, Mapping):
-        columns = ColumnMap.from_dict(columns)
-    elif isinstance(columns, str | os.PathLike):
-        columns = ColumnMap.from_json(columns)
+    columns = _column_map(columns)
     if is_adapter(model):  # a ready adapter reads its own column names
         if columns is not None:
             raise DiagnosisError("a column map applies to models, not to a ready adapter")
@@ -325,7 +342,7 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
              params: Mapping[str, Any] | None = None, *,
              columns: ColumnMap | Mapping[str, Any] | str | os.PathLike | None = None,
              horizon: float | None = None, train_fraction: float = 0.7,
-             duration: float | None = None) -> Report:
+             duration: float | None = None, input_hold: str | None = None) -> Report:
     """Diagnose a recording against a nominal model (the one entry point).
 
     The CLI (``simgap diagnose``) calls this too, so a model gives the same columns, units
@@ -343,6 +360,10 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
         horizon: simulation window of the comparison (s); default per system.
         train_fraction: earliest share of the recording used for fitting.
         duration: diagnose only the first ``duration`` seconds (s); ``None`` = all.
+        input_hold: how the logged inputs relate to the acting ones: ``"zoh"`` (held until
+            the next sample), ``"sample"`` (point samples) or ``"auto"`` (decided from the
+            data). ``None``: the column map's ``input_hold``, else the model's declaration
+            (its column map or recording schema), else ``"auto"``.
 
     Returns:
         The :class:`Report`. Its ``processing`` section records the model file and the
@@ -359,12 +380,16 @@ def diagnose(recording: Recording | str | os.PathLike, model: str | Any = "manip
             raise DiagnosisError(f"parameter overrides do not apply to {model}; edit the file")
         return by_file.resolve("diagnose_file")(model, recording, columns=columns,
                                                 duration=duration, horizon=horizon,
-                                                train_fraction=train_fraction)
+                                                train_fraction=train_fraction,
+                                                input_hold=input_hold)
     obj, spec = resolve_model(model, params)
+    columns = _column_map(columns)
     rec = _read(recording, obj, columns)
     if duration is not None:
         rec = first_seconds(rec, duration)
-    system = _adapter(obj, set(rec.columns))
+    # a declared hold: the argument, else the map's; the model's own in the adapter
+    system = _with_hold(_adapter(obj, set(rec.columns)), input_hold if input_hold is not None
+                        else getattr(columns, "input_hold", None))
     plausibility.check_recording(rec, system)  # units, magnitudes, motion (one line)
     report = _run(rec, system, horizon, train_fraction)
     processing = report.data["processing"]

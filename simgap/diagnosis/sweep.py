@@ -25,8 +25,11 @@ from simgap.sweeps import JobResult, run_jobs
 
 
 def diagnose_any(recording: str | os.PathLike, model: str, params: Mapping | None = None,
-                 columns: str | os.PathLike | None = None) -> Any:
+                 columns: str | os.PathLike | None = None,
+                 input_hold: str | None = None) -> Any:
     """Diagnose one recording against a built-in model, a model file or an MJCF file.
+
+    ``input_hold``: ``--input-hold`` (``None``: the column map's or the model's).
 
     Raises:
         SimgapError: bad recording, model, parameters or column map (one line).
@@ -34,14 +37,15 @@ def diagnose_any(recording: str | os.PathLike, model: str, params: Mapping | Non
     if str(model).lower().endswith(".xml"):  # an MJCF file (simgap.diagnosis.mujoco)
         from simgap.diagnosis.mujoco import diagnose_mjcf
 
-        return diagnose_mjcf(model, recording, columns=columns)
+        return diagnose_mjcf(model, recording, columns=columns, input_hold=input_hold)
     from simgap.diagnosis.pipeline import diagnose
 
-    return diagnose(recording, model, dict(params) if params else None, columns=columns)
+    return diagnose(recording, model, dict(params) if params else None, columns=columns,
+                    input_hold=input_hold)
 
 
 def diagnose_job(recording: str, model: str, params: dict | None, columns: str | None,
-                 out: str, figures: bool) -> dict[str, Any]:
+                 out: str, figures: bool, input_hold: str | None = None) -> dict[str, Any]:
     """One recording's diagnosis written into ``out``; returns its summary row.
 
     Raises:
@@ -51,7 +55,7 @@ def diagnose_job(recording: str, model: str, params: dict | None, columns: str |
     from simgap.limits import check_recording_file
 
     check_recording_file(recording)  # a missing log, a FIFO, an overlong header: unopened
-    report = diagnose_any(recording, model, params, columns)
+    report = diagnose_any(recording, model, params, columns, input_hold)
     write_report(report, out, figures=figures)
     data = report.data
     fit = data.get("fit", {})
@@ -128,7 +132,8 @@ def diagnose_batch(out: Path | str, recordings: Sequence[str | os.PathLike], mod
                    params: Mapping | None = None, columns: str | os.PathLike | None = None,
                    figures: bool = True, jobs: int = 1, ray: bool | str | None = None,
                    inputs: Sequence = (),
-                   progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                   progress: Callable[[int, int], None] | None = None,
+                   input_hold: str | None = None) -> dict[str, Any]:
     """Diagnose every recording and write per-recording reports plus one summary.
 
     Args:
@@ -144,6 +149,8 @@ def diagnose_batch(out: Path | str, recordings: Sequence[str | os.PathLike], mod
         inputs: further input files (parameter, column-map, model files) ``out`` must not be
             or hold.
         progress: called with (done, total) as recordings finish.
+        input_hold: ``--input-hold`` for every recording (``None``: the column map's or
+            the model's).
 
     Returns:
         The summary (as written to ``summary.json``) with ``"files"``.
@@ -160,7 +167,8 @@ def diagnose_batch(out: Path | str, recordings: Sequence[str | os.PathLike], mod
     every_input = (*recs, *(i for i in inputs if i is not None))
     with output_folder(out, kind="diagnose-batch", inputs=every_input) as tmp:
         job_list = [(rec, model, dict(params) if params else None,
-                     None if columns is None else str(columns), str(tmp / folder), figures)
+                     None if columns is None else str(columns), str(tmp / folder), figures,
+                     input_hold)
                     for rec, folder in zip(recs, folders, strict=True)]
         results = run_jobs(diagnose_job, job_list, workers=jobs, ray=ray, progress=progress)
         summary = summarise(recs, folders, results)

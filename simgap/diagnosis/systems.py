@@ -54,7 +54,7 @@ from simgap.diagnosis.residual import (
     segmented_grid,
 )
 from simgap.diagnosis.significance import likelihood_ratio
-from simgap.errors import CustomModelError
+from simgap.errors import ColumnMapError, CustomModelError
 from simgap.models import manipulator as man
 from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, axle_loads, slip_angles, state_derivative
@@ -62,6 +62,7 @@ from simgap.models.effects import format_unit
 from simgap.models.integrators import rk4_batch_step
 from simgap.models.tires import MagicFormulaTire
 from simgap.recordings import Recording
+from simgap.schema import RecordingSchema
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -100,6 +101,21 @@ class AdapterColumns:
         """All columns the recording must have."""
         cols = (self.t,) + self.q + (self.dq or ()) + self.u
         return cols + ((self.vx,) if self.vx else ())
+
+
+def declared_hold(model: Any) -> str:
+    """The input hold a model declares: its column map's, else its recording schema's.
+
+    ``"auto"`` (the diagnosis decides from the data) when neither declares one.
+    """
+    cmap = getattr(model, "column_map", None)
+    hold = getattr(cmap, "input_hold", None)
+    if hold is not None:
+        return hold
+    try:
+        return RecordingSchema.of(model).input_hold
+    except ColumnMapError:
+        return "auto"
 
 
 MANIPULATOR_COLUMNS = AdapterColumns(q=("q1", "q2"), dq=("dq1", "dq2"), u=("tau1", "tau2"))
@@ -313,7 +329,8 @@ class MechanicalSystem:
                 cmap = getattr(model, "column_map", None)
                 velocities = all(c in recorded and (cmap is None or c in cmap.columns)
                                  for c in dq)
-            columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u)
+            columns = AdapterColumns(q=q, dq=dq if velocities else None, u=u,
+                                     input_hold=declared_hold(model))
         self.model = model
         self.columns = columns
         self.n_channels = len(columns.q)
@@ -702,15 +719,19 @@ class MechanicalSystem:
 
     def _delayed(self, prepared: Prepared, effects, rows: np.ndarray
                  ) -> tuple[list, np.ndarray | None]:
-        """(effects without input delays, per-row held input with the delays or None)."""
-        delays = [(j, float(nl[0])) for eff, j, lin, nl in effects
-                  if getattr(eff, "on_input", False)]
-        if not delays:
+        """(effects not on the input, per-row acting input or None).
+
+        The acting input is the held input passed, per channel and in the effects' order,
+        through each ``on_input`` effect's ``input_map`` (a delay, a dead zone).
+        """
+        maps = [(eff, j, np.asarray(nl, dtype=np.float64)) for eff, j, lin, nl in effects
+                if getattr(eff, "on_input", False)]
+        if not maps:
             return list(effects), None
         t, held = prepared.t, prepared.held_input
         u = held.copy()
-        for j, tau in delays:
-            u[:, j] = np.interp(t - tau, t, held[:, j])
+        for eff, j, nl in maps:
+            u[:, j] = eff.input_map(nl, t, u[:, j])
         rest = [e for e in effects if not getattr(e[0], "on_input", False)]
         return rest, u[rows]
 

@@ -212,6 +212,9 @@ class ManipulatorFrictionEnv(PlantEnv):
         if plant.has("input_delay"):
             raise EnvError("the env does not simulate an input_delay (a transport delay of "
                            "the command); simgap record / diagnosis.generate does")
+        if plant.has("dead_zone"):
+            raise EnvError("the env does not simulate an actuator dead_zone; simgap record "
+                           "/ diagnosis.generate does")
 
     @property
     def friction(self) -> FrictionParams:

@@ -85,8 +85,21 @@ class FitSpec:
         uses_derivatives: the contribution depends on accelerations (mass-type effects).
         generalizes: simpler effects this one contains as a special case (same channel).
         generic: applies to any mechanical model (not only the system declaring it).
-        on_input: the effect changes the input that acts (a delay), not the dynamics: a
-            simulation applies it to the input instead of adding its contribution.
+        on_input: the effect changes the input that acts (a delay, a dead zone), not the
+            dynamics: a simulation applies it to the input (``input_map``) instead of adding
+            its contribution.
+        input_map: ``input_map(nl, t, u) -> u_acting`` for an ``on_input`` effect: the input
+            that acts on the channel, from the channel's held input ``u`` on the time grid
+            ``t`` (s) and the nonlinear coordinates ``nl``.
+        excitation: ``excitation(effect, lin, nl, u, noise) -> str``: why the recorded
+            input ``u`` (the channel's held input, in time order) cannot identify the effect
+            at its fitted values ("" when it can); ``noise`` is the channel's residual noise
+            std per independent sample (channel units). Checked before the effect is named.
+        confusable_with: same-channel effects whose regressors may coincide with this one's
+            on some data (a dead zone on a command of one sign is a torque bias; on a
+            command whose sign follows the velocity it is a Coulomb friction): the effect is
+            named only where it stays determined with them fitted beside it (the same joint
+            check as ``symmetric_with``).
         corrects: ``(coordinate, nominal coefficient)`` pairs: where the nominal model
             already holds this term (its own ``damping`` for viscous b), the coordinate is a
             signed correction of it, bounded below by −(the nominal's value) instead of by
@@ -127,6 +140,7 @@ class FitSpec:
     on_input: bool = False
     corrects: tuple[tuple[str, str], ...] = ()
     symmetric_with: tuple[str, ...] = ()
+    confusable_with: tuple[str, ...] = ()
     fn: FitFn = field(repr=False)
     to_report: Callable[..., tuple[dict[str, float], dict[str, float], dict[str, str]]] | None \
         = field(default=None, repr=False)
@@ -134,6 +148,10 @@ class FitSpec:
                           tuple[tuple[float, ...], tuple[float, ...]]] | None \
         = field(default=None, repr=False)
     for_data: Callable[[Any, Mapping[str, np.ndarray], int | None, Any], Any] | None \
+        = field(default=None, repr=False)
+    input_map: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None \
+        = field(default=None, repr=False)
+    excitation: Callable[[Any, np.ndarray, np.ndarray, np.ndarray, float], str] | None \
         = field(default=None, repr=False)
 
     def coordinates(self, params: Mapping[str, float], context: Mapping[str, float] | None = None

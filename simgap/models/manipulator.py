@@ -237,6 +237,17 @@ def cubic_spring(q, k3):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def dead_zone(u, d):  # pragma: no cover - compiled
+    """Effort an actuator with a dead zone of half-width d applies for the command u.
+
+    u − clip(u, −d, d): zero inside ±d, the command shifted towards zero by d outside it
+    (u and d in N·m or N, d ≥ 0). The pure-numpy form (``dead_zone.py_func``) works on
+    arrays alike.
+    """
+    return u - np.minimum(np.maximum(u, -d), d)
+
+
+@njit(cache=True)
 def tau_d(q, dq, theta):  # pragma: no cover - compiled
     """Left-out joint torque tau_d(q, dq) (N·m) of the plant array: friction + bias/spring."""
     out = np.empty(2)
@@ -613,6 +624,62 @@ def _fit_delay(lin, nl, sig, j, ctx):
     return on_channel((u - late)[sig["idx"]], j, ctx.n_channels)
 
 
+def _delay_input(nl, t, u):
+    """The held input u(t) felt ``nl[0]`` seconds late (linear interpolation on the grid)."""
+    return np.interp(t - nl[0], t, u)
+
+
+def _fit_dead_zone(lin, nl, sig, j, ctx):
+    """The command the actuator does not apply: u − dead_zone(u, d) = clip(u, −d, d).
+
+    u is the channel's held input; d = ``nl[0]`` (N·m or N).
+    """
+    u = ctx.held_input[:, j][sig["idx"]]
+    return on_channel(u - dead_zone.py_func(u, nl[0]), j, ctx.n_channels)
+
+
+def _dead_zone_input(nl, t, u):
+    """The effort that acts: the held command through the dead zone of half-width ``nl[0]``."""
+    return dead_zone.py_func(u, nl[0])
+
+
+#: Passes of the command through the dead band ±d (from one side to the other) a dead zone
+#: needs to be named: where the command stays on one side, a dead zone is d·sign(u), a
+#: constant torque bias.
+DEAD_ZONE_MIN_PASSES = 4
+#: Level of the dwell test: inside ±d the dead zone takes the whole command (contribution
+#: u), where a relay d·sign(u) would take d; the command must dwell there long enough that
+#: the expected χ² statistic of that difference against the noise (Σ (d − |u|)² / σ² over
+#: the samples inside, σ per independent sample) reaches the χ²(1) critical value.
+DEAD_ZONE_DWELL_ALPHA = 0.01
+
+
+def _dead_zone_excitation(effect, lin, nl, u, noise):
+    """Why the held command ``u`` cannot identify a dead zone of half-width ``nl[0]``.
+
+    ``u``: the channel's held input in time order; ``noise``: the channel's residual noise
+    std per independent sample (N·m or N). Returns "" when it can.
+    """
+    from scipy.stats import chi2
+
+    d = float(nl[0])
+    inside = np.abs(u) < d
+    side = np.sign(u[np.abs(u) > d])
+    passes = int(np.sum(side[1:] != side[:-1]))
+    if passes < DEAD_ZONE_MIN_PASSES:
+        return (f"the command passes through the fitted dead band ±{d:.3g} {passes} times "
+                f"(at least {DEAD_ZONE_MIN_PASSES} needed): where it stays on one side a "
+                "dead zone is a constant torque bias")
+    stat = float(np.sum((d - np.abs(u[inside])) ** 2)) / max(noise, 1e-300) ** 2
+    crit = float(chi2.isf(DEAD_ZONE_DWELL_ALPHA, 1))
+    if not stat >= crit:
+        return (f"the command dwells inside the fitted dead band ±{d:.3g} on "
+                f"{int(np.sum(inside))} of {u.size} samples: too little to tell a dead zone "
+                f"from a relay d·sign(u) (expected χ² {stat:.3g} < {crit:.3g}); a dead zone "
+                "needs commands that pass through and dwell near zero")
+    return ""
+
+
 def _fit_gravity(lin, nl, sig, j, ctx):
     return lin[0] * ctx.gravity(sig["q"])
 
@@ -686,7 +753,7 @@ def _start(plant: Plant) -> dict:
     return {"fc": [0.0, 0.0], "b": [0.0, 0.0], "fs": [None, None], "vs": [0.05, 0.05],
             "c2": [0.0, 0.0],
             "tau0": [0.0, 0.0], "k": [0.0, 0.0], "q0": [0.0, 0.0], "k3": [0.0, 0.0],
-            "input_delay": [0.0, 0.0],
+            "input_delay": [0.0, 0.0], "dead_zone": [0.0, 0.0],
             "payload": p.payload, "extra": list(p.extra_inertia), "g": p.g}
 
 
@@ -805,7 +872,21 @@ VOCABULARY = (
                            # the arm and MJCF models; on the real EMPS pulse set a generic
                            # delay was named beside the published friction (it may stand in
                            # for the structural flexibility there), so not yet for any model
-                           on_input=True, generic=False, fn=_fit_delay)),
+                           on_input=True, input_map=_delay_input, generic=False,
+                           fn=_fit_delay)),
+    EffectSpec(name="dead_zone", label="actuator dead zone", scope="channel",
+               params=(Param(name="d", unit="{effort}", bounds=_NONNEG, inject=(0.1, 0.3)),),
+               write=_set("dead_zone", "d"),
+               # identifiable only where the command passes through ±d and dwells inside
+               # it (excitation), and where it stays determined beside a torque bias
+               # (a dead zone on a command of one sign) and a Coulomb friction (a command
+               # whose sign follows the velocity) at the same joint; arm only for now
+               fit=FitSpec(scope="joint", nl=("d",), nl_units=("{effort}",),
+                           nl_bounds=((1e-3, 5.0),), nl_grid=((0.03, 0.1, 0.3, 1.0),),
+                           on_input=True, input_map=_dead_zone_input, generic=False,
+                           excitation=_dead_zone_excitation,
+                           confusable_with=("torque_bias", "coulomb_friction"),
+                           fn=_fit_dead_zone)),
 )
 
 
@@ -831,7 +912,8 @@ def _fold(plant: Plant) -> Folded:
                          extra_inertia=tuple(acc["extra"]))
     return Folded(params, plant_array(params, friction, disturbance),
                   {"friction": friction, "disturbance": disturbance,
-                   "input_delay": tuple(acc["input_delay"])})
+                   "input_delay": tuple(acc["input_delay"]),
+                   "dead_zone": tuple(acc["dead_zone"])})
 
 
 #: The arm's plant declaration; ``PLANT_SCHEMA.plant(params, effects)`` makes a Plant.

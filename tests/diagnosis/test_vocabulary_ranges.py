@@ -34,4 +34,5 @@ def test_ranges_read_from_the_vocabulary_equal_the_former_table_in_order():
     assert list(former) == list(FORMER)
     assert [list(v[2]) for v in former.values()] == [list(v[2]) for v in FORMER.values()]
     # the effects added since (issue 13's vocabulary) and nothing else
-    assert set(RANGES) - set(FORMER) == {"quadratic_drag", "cubic_stiffness", "input_delay"}
+    assert set(RANGES) - set(FORMER) == {"quadratic_drag", "cubic_stiffness", "input_delay",
+                                         "dead_zone"}
