@@ -39,8 +39,10 @@ from numba import njit
 from scipy.signal import lfilter, savgol_coeffs
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
+from simgap.diagnosis.errormodel import MAD_TO_STD
 from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.residual import (
+    MAX_WINDOW_S,
     POLYORDER,
     KernelFilter,
     Smoother,
@@ -107,6 +109,12 @@ STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
+#: The residual's high-band error (robust std) over the white floor's above which the
+#: equation's filter is chosen for the larger error (a factor 2 in std, as
+#: :data:`simgap.diagnosis.errormodel.HF_EXCESS` in power).
+ERROR_EXCESS = 2.0
+#: Longest kernel window (s) when it is chosen for such an error.
+EXCESS_WINDOW_S = 0.25
 #: Level of the test that gives logged inputs another lag than a held command's (ZOH).
 HOLD_ALPHA = 0.01
 #: Rows per block where a per-row product with M(q) is evaluated in blocks (M(q) is
@@ -434,8 +442,8 @@ class MechanicalSystem:
                 return None
             bounds.append((floor, hi))
             kept = tuple(v for v in g if floor < v < hi)
-            grid.append(kept if len(kept) >= len(g) else (float(np.sqrt(floor * (kept or (hi,))[0])),
-                                                            *kept))
+            first = float(np.sqrt(floor * (kept or (hi,))[0]))  # between floor and grid
+            grid.append(kept if len(kept) >= len(g) else (first, *kept))
         return dataclasses.replace(effect, nl_bounds=tuple(bounds), nl_grid=tuple(grid))
 
     # -- signals and residual ----------------------------------------------------------
@@ -599,8 +607,12 @@ class MechanicalSystem:
 
     def _plan(self, raw: Mapping[str, np.ndarray], dt: float,
               bounds: tuple[tuple[int, int], ...], noise: Mapping[str, float],
-              from_q: bool) -> tuple[_Plan, np.ndarray, np.ndarray]:
-        """(filter plan, inner filter weights, velocity noise per joint) of a recording."""
+              from_q: bool, max_seconds: float = MAX_WINDOW_S
+              ) -> tuple[_Plan, np.ndarray, np.ndarray]:
+        """(filter plan, inner filter weights, velocity noise per joint) of a recording.
+
+        ``max_seconds``: longest kernel window (s).
+        """
         c = self.columns
         shortest = min(b - a for a, b in bounds)
         src = c.q if from_q else c.dq
@@ -623,7 +635,7 @@ class MechanicalSystem:
                             use="conv")
         k_w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
                             noise=[noise[k] for k in src], kind="kernel", pre=pre,
-                            length=shortest)
+                            length=shortest, max_seconds=max_seconds)
         plan = _Plan(inner=Smoother(inner_w, dt, bounds), kernel=KernelFilter(k_w, dt, bounds),
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
@@ -676,6 +688,28 @@ class MechanicalSystem:
         white = {k: (models[k].white_std if k in quant else v) for k, v in noise.items()}
         floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
                             quantised=quant)
+        if kernel is not None and not quant:   # a staircase's error is modelled as such
+            excess = self._error_excess(raw, plan, res, white)
+            if excess > ERROR_EXCESS:
+                src = c.q if from_q else c.dq
+                scaled = {k: v * excess if k in src else v for k, v in noise.items()}
+                new, pre_x, vel_x = self._plan(raw, dt, bounds, scaled, from_q,
+                                               max_seconds=EXCESS_WINDOW_S)
+                if new.kernel.window != kernel.window:
+                    warn.append(
+                        f"the residual's high-frequency error is {excess:.3g}x what the "
+                        "columns' white noise explains (coloured or under-estimated "
+                        "measurement error): the equation's filter is chosen for that "
+                        f"error ({kernel.window} -> {new.kernel.window} samples)")
+                    plan, pre, vel_noise = dataclasses.replace(new, hold=plan.hold), pre_x, \
+                        vel_x
+                    kernel = smoother = plan.kernel
+                    sig = self._signals(raw, plan)
+                    res = self._residual(sig, kernel)
+                    quant = {k: (models[k].quantum, sig["q"][:, j]) for j, k in enumerate(c.q)
+                             if self.is_manipulator and _quantised(models[k])}
+                    floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
+                                        quantised=quant)
         model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
                                     axis=0))
         floor = np.hypot(floor, NUMERICAL_FLOOR * model_rms)
@@ -697,6 +731,42 @@ class MechanicalSystem:
                                             for j in range(sig["q"].shape[1])),
                         state_derivative=sig["ddq"],
                         derivatives=tuple(("ddq", j) for j in range(self.n_channels)))
+
+    def _error_excess(self, raw: Mapping[str, np.ndarray], plan: _Plan, res: np.ndarray,
+                      white: Mapping[str, float]) -> float:
+        """How much larger the residual's high-frequency error is than the columns' explain.
+
+        The band is the kernel's upper pass band, r − K*r: physics (a function of the
+        operating point, of the trajectory's bandwidth) is mostly removed there, the
+        differentiated measurement error is not. Its robust std (1.4826·MAD, so that the
+        sparse kinks of a friction reversal do not count) is compared with the same band of
+        the propagated white floor (:func:`noise_floor`, same statistic). White column
+        noise gives ≤ 1; a velocity with 2 % AR(1) noise of 50 ms correlation time gives
+        ≈ 4–6 (its k-th differences see only the innovations).
+
+        Returns:
+            The largest ratio over the channels (1.0 when the floor is zero).
+        """
+        kernel = plan.kernel
+
+        def high(r: np.ndarray) -> np.ndarray:
+            return r - kernel(r)
+
+        valid = kernel.valid(len(res))
+        base = high(res)
+        rng = np.random.default_rng(0)
+        noisy = {k: v + rng.normal(0.0, white.get(k, 0.0), size=v.shape) for k, v in
+                 raw.items()}
+        change = high(self.residual_of(noisy, plan)) - base
+        del noisy
+
+        def robust(x: np.ndarray) -> np.ndarray:
+            return MAD_TO_STD * np.median(np.abs(x[valid]), axis=0)
+
+        floor = robust(change)
+        mine = robust(base)
+        ratio = np.where(floor > 0, mine / np.where(floor > 0, floor, 1.0), 1.0)
+        return float(np.max(ratio)) if ratio.size else 1.0
 
     def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray,
                   valid: np.ndarray | None = None) -> np.ndarray:
