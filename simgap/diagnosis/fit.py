@@ -1194,8 +1194,10 @@ class Fitter:
         names = fit.param_names()
         if not names:
             return {"names": [], "correlation": [], "condition": 1.0, "combinations": []}
+        nonlinear = [kind for t in fit.terms for kind in
+                     [False] * len(t.effect.lin) + [True] * len(t.effect.nl)]
         ana = identifiability.analyse(fit.jac, names, noise_std=float(np.sqrt(fit.tau)),
-                                      values=fit.values())
+                                      values=fit.values(), nonlinear=nonlinear)
         return {"names": names, "correlation": np.round(ana.correlation, 4).tolist(),
                 "condition": float(ana.condition) if np.isfinite(ana.condition) else None,
                 "combinations": [c.describe() for c in ana.unidentifiable],

@@ -114,11 +114,12 @@ def test_stribeck_scale_is_bounded_by_the_slowest_fitted_speed():
             assert (e.nl_grid[0] == (0.01, 0.03, 0.1, 0.3)) != quantised
 
 
-def test_quantised_stribeck_is_said_not_silenced():
+def test_quantised_stribeck_is_found_not_silenced():
     """Before: vs = 0.007 rad/s, Fs = 620 N·m, held-out loss, and "No mismatch". Now the
-    fit lands at the truth's scale (vs 0.21 rad/s) with a significant held-out gain; its
-    (Fs, vs) shape is not determined (Fs 2 stderr from 0), so it is not named, but the
-    report says there is a mismatch at joint 2 and what fits it."""
+    fit lands at the truth's scale (vs 0.21 rad/s) with a significant held-out gain and
+    is named (Fs = 0.28 ± 0.08 N·m, vs = 0.19 ± 0.04 rad/s); were its (Fs, vs) shape not
+    determined, the report would still say there is a mismatch at joint 2 and what fits
+    it (a signed projection of ≈ 0 had called it undetermined)."""
     inj, rec = _case("stribeck_friction", "quantised_encoder", 0)
     rep = diagnose(rec, "manipulator2dof")
     st = [e for e in rep.data["tried"] if e["effect"] == "stribeck_friction"
@@ -127,8 +128,12 @@ def test_quantised_stribeck_is_said_not_silenced():
     assert st["params"]["Fs"] < 2.0
     assert st["p_value"] is not None and st["p_value"] < 1e-3
     assert rep.significant
-    assert "stribeck_friction at joint 2" in rep.data["verdict"]
-    if not rep.effects:
+    assert "stribeck friction at joint 2" in rep.data["verdict"].lower().replace("_", " ")
+    if rep.effects:
+        assert _found(rep) == ["stribeck_friction@joint2"]
+        got = rep.effects[0]["parameters"]
+        assert all(abs(got[k] / inj.params[k] - 1) < 0.2 for k in ("Fs", "vs")), got
+    else:
         assert st["decision"] == "not identifiable"
         assert "No mismatch" not in rep.data["verdict"]
 
@@ -140,3 +145,25 @@ def test_clean_quantised_log_still_claims_nothing():
                                                    PAIRS, np.random.default_rng(9000 + seed))
         rep = diagnose(Recording(rec.name, dict(rec.columns)), "manipulator2dof")
         assert not rep.effects and not rep.significant, rep.data["verdict"]
+
+
+# ---------------------------------------------------------------- identifiability
+def test_a_nonlinear_direction_is_not_undetermined_by_a_cancelling_projection():
+    """Two parameters whose scaled values are equal: the signed projection on their
+    difference is 0. Linear ones keep the old test (the data cannot fix the difference's
+    sign); a nonlinear one (a scale) is compared with Σ|vⱼθⱼ| and is determined when its
+    standard error is small; with a large error it is still undetermined."""
+    from simgap.diagnosis.identifiability import analyse
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=400)
+    j = np.column_stack([a, 0.8 * a + 0.6 * rng.normal(size=400)])   # correlated columns
+    norms = np.linalg.norm(j, axis=0)
+    values = 5.0 / norms                           # equal scaled sizes: projection 0
+    names = ["e@j:A", "e@j:vs"]
+    lin = analyse(j, names, noise_std=1.0, values=values, nonlinear=[False, False])
+    mixed = analyse(j, names, noise_std=1.0, values=values, nonlinear=[False, True])
+    assert not lin.identifiable
+    assert mixed.identifiable
+    noisy = analyse(j, names, noise_std=50.0, values=values, nonlinear=[False, True])
+    assert not noisy.identifiable
