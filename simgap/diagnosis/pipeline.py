@@ -480,7 +480,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "tried": [_jsonable(e) for e in sel.tried],
         "identifiability": sel.identifiability,
         "verdict": verdict(entries, stats, system, unexplained if base > 0 and any(
-            e["testable_held_out"] for e in entries) else None),
+            e["testable_held_out"] for e in entries) else None, bool(undetermined)),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
@@ -632,15 +632,20 @@ def _jsonable(entry: dict[str, Any]) -> dict[str, Any]:
 
 
 def verdict(entries: list[dict], stats: list[locate.ChannelStat], system: Any,
-            unexplained: float | None) -> str:
-    """One line: is there a mismatch, what is named, what is left."""
+            unexplained: float | None, undetermined: bool = False) -> str:
+    """One line: is there a mismatch, what is named, what is left.
+
+    ``undetermined``: a term passed its held-out test but its parameters are not
+    determined (said after this line).
+    """
     hit = [_channel_label(s.channel) for s in stats if s.significant]
     if not entries:
         if not hit:
             return "No mismatch beyond the noise: the nominal model explains this recording."
-        return (f"Mismatch at {', '.join(hit)}, not explained by a named effect (no "
-                "vocabulary effect passed and replicated the held-out tests): located, not "
-                "named.")
+        why = ("what fits it held out is not determined by the data" if undetermined else
+               "no vocabulary effect passed and replicated the held-out tests")
+        return (f"Mismatch at {', '.join(hit)}, not explained by a named effect ({why}): "
+                "located, not named.")
     names = "; ".join(e["text"] for e in entries)
     if unexplained is None:
         return f"Named: {names} (the held-out part cannot test them)."
