@@ -167,3 +167,14 @@ def test_a_nonlinear_direction_is_not_undetermined_by_a_cancelling_projection():
     assert mixed.identifiable
     noisy = analyse(j, names, noise_std=50.0, values=values, nonlinear=[False, True])
     assert not noisy.identifiable
+
+
+def test_verdict_says_when_what_fits_is_not_determined():
+    from simgap.diagnosis.locate import ChannelStat
+    from simgap.diagnosis.pipeline import verdict
+
+    stats = [ChannelStat("joint1", 0.1, 0.1, False), ChannelStat("joint2", 0.13, 0.12, True)]
+    plain = verdict([], stats, None, None)
+    said = verdict([], stats, None, None, undetermined=True)
+    assert plain.startswith("Mismatch at joint 2") and said.startswith("Mismatch at joint 2")
+    assert "not determined" in said and "not determined" not in plain
