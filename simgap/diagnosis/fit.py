@@ -745,6 +745,7 @@ class Fitter:
                             for name in t.effect.confusable_with) for i in near}
             pick = min(near, key=lambda i: (sum(t.effect.n_params for t in trials[i][0]),
                                             alike[i], -gains[i]))
+            pick = self._nested_pick(pick, ok, trials, held, evals)
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
             fit = self.fit_new(current, hyp, full=False)
@@ -781,7 +782,8 @@ class Fitter:
                     evals[i]["reason"] = (
                         f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
                         f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
-                        "round (a larger gain, or as large with fewer parameters)")
+                        "round (a larger gain, or as large with fewer parameters)"
+                        + evals[i].get("_nested", ""))
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")
@@ -818,6 +820,51 @@ class Fitter:
         sel.tried = [{k: v for k, v in e.items() if not k.startswith("_")}
                      for e in tried.values()]
         return sel
+
+    @staticmethod
+    def _nests(big: tuple[Term, ...], small: tuple[Term, ...]) -> bool:
+        """Whether hypothesis ``big`` contains ``small`` as a special case (same channels).
+
+        Each term of ``small`` is a term of ``big`` or a special case of one
+        (``FitSpec.generalizes`` at the same channel: a spring k·q + c holds the bias c,
+        Stribeck holds Coulomb); a friction family holds each of its members.
+        """
+        if big == small:
+            return False
+        return all(any(u.key == t.key or (u.index == t.index and u.effect.name in
+                                          t.effect.generalizes) for t in big) for u in small)
+
+    def _nested_pick(self, pick: int, ok: Sequence[int], trials: Sequence[tuple],
+                     held: Sequence[tuple], evals: Sequence[dict]) -> int:
+        """The round's pick, or a significant hypothesis it nests that it does not beat.
+
+        The pick among candidates of similar gain prefers fewer parameters within
+        :data:`TIE` of the best; a hypothesis that *contains* another significant one (a
+        spring k·q + c and the bias c; Stribeck and Coulomb) must moreover beat it by the
+        nested held-out likelihood-ratio test (χ² with the extra parameters, at
+        :data:`ALPHA`): otherwise its extra parameters are not supported by held-out data
+        and the simpler hypothesis is picked. Measured: on a coloured-noise log a torque
+        bias of 0.20 N·m was named as a spring k = −0.080 ± 0.048 N·m/rad, q0 = 3.1 ± 1.5
+        rad (outside the recorded range), whose validation gain was 6 % above the bias'
+        (the tie allowance is 5 %) while its slope was 1.7 standard errors from zero.
+        """
+        while True:
+            big = trials[pick][0]
+            n_big = sum(t.effect.n_params for t in big)
+            inner = [i for i in ok if i != pick and self._nests(big, trials[i][0])]
+            kept = []
+            for i in inner:
+                extra = n_big - sum(t.effect.n_params for t in trials[i][0])
+                g = likelihood_ratio(held[i][0], held[pick][0], max(extra, 1))
+                if not (g.testable and g.p_value < ALPHA and g.share_removed > 0):
+                    kept.append(i)
+                    evals[pick]["_nested"] = (
+                        f"; not better than {evals[i]['effect']}@{evals[i]['channel']}, which "
+                        f"it contains, by the nested held-out test (p = {g.p_value:.2g} ≥ "
+                        f"{ALPHA})")
+            if not kept:
+                return pick
+            pick = max(kept, key=lambda i: evals[i]["gain"])
 
     def _confirm(self, current: FitResult, sel: Selection, tried: dict) -> FitResult:
         """Refit on the whole fit part; keep only terms whose gain replicates held out.
@@ -1191,8 +1238,10 @@ class Fitter:
         names = fit.param_names()
         if not names:
             return {"names": [], "correlation": [], "condition": 1.0, "combinations": []}
+        nonlinear = [kind for t in fit.terms for kind in
+                     [False] * len(t.effect.lin) + [True] * len(t.effect.nl)]
         ana = identifiability.analyse(fit.jac, names, noise_std=float(np.sqrt(fit.tau)),
-                                      values=fit.values())
+                                      values=fit.values(), nonlinear=nonlinear)
         return {"names": names, "correlation": np.round(ana.correlation, 4).tolist(),
                 "condition": float(ana.condition) if np.isfinite(ana.condition) else None,
                 "combinations": [c.describe() for c in ana.unidentifiable],

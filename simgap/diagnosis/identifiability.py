@@ -90,8 +90,8 @@ class Identifiability:
 
 
 def analyse(jacobian: np.ndarray, names: Sequence[str], *, noise_std: float | None = None,
-            values: Sequence[float] | None = None, rel_tol: float = REL_TOL
-            ) -> Identifiability:
+            values: Sequence[float] | None = None, rel_tol: float = REL_TOL,
+            nonlinear: Sequence[bool] | None = None) -> Identifiability:
     """Joint identifiability of the parameters whose regressors are ``jacobian``'s columns.
 
     Args:
@@ -104,6 +104,14 @@ def analyse(jacobian: np.ndarray, names: Sequence[str], *, noise_std: float | No
             √τ for correlated residuals) where known.
         values: fitted parameter values (parameter units), in ``names`` order.
         rel_tol: relative singular value below which a direction counts as collinear.
+        nonlinear: per parameter, whether it is a nonlinear one (a scale such as
+            Stribeck's vs, whose zero is no "no effect"). A direction that involves one is
+            compared with the fitted vector's size along it without cancellation between
+            its parameters (Σ|vⱼθⱼ|), not with the signed projection: the signed one of
+            (Fs, vs) vanishes whenever their scaled sizes happen to be equal, whatever
+            their standard errors (measured: a quantised encoder's Stribeck term, Fs =
+            0.28 ± 0.13 N·m, vs = 0.21 ± 0.06 rad/s, was "not determined" by a projection
+            of ≈ 0).
 
     Returns:
         The :class:`Identifiability` of the whole set.
@@ -132,7 +140,10 @@ def analyse(jacobian: np.ndarray, names: Sequence[str], *, noise_std: float | No
     combos = []
     for i, si in enumerate(s):
         rel = si / smax if smax > 0 else 0.0
-        along = abs(float(vt[i] @ theta)) if theta is not None else 0.0
+        mixed = nonlinear is not None and any(
+            nl and abs(x) >= NAME_SHARE for nl, x in zip(nonlinear, vt[i], strict=True))
+        along = 0.0 if theta is None else (float(np.sum(np.abs(vt[i] * theta))) if mixed
+                                           else abs(float(vt[i] @ theta)))
         err = (noise_std / si) if (noise_std is not None and si > 0) else float("inf")
         rel_err = err / along if along > 0 else float("inf")
         collinear = rel < rel_tol

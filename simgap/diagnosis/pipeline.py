@@ -426,9 +426,19 @@ def _run(rec: Recording, system: Any, horizon: float | None,
     entries, preds, fitted, sse_all = _effect_entries(fitter, sel, system)
     structure = structure_tests(system, res, fitter)
     level = ALPHA / max(len(stats), 1)
-    mismatch = bool(entries) or any(s.significant and g.significant(level)
-                                    for s, g in zip(stats, structure, strict=True))
-    stats = [dataclasses.replace(s, significant=s.significant and mismatch) for s in stats]
+    # terms that passed their held-out test in the selection but whose parameters the data
+    # do not determine (dropped by the joint identifiability check): a mismatch is there
+    # (say where and what fits it), its shape is not named
+    undetermined = [e for e in sel.tried if e.get("decision") == "not identifiable"
+                    and e.get("p_value") is not None and e["p_value"] < ALPHA
+                    and (e["effect"], e["channel"]) not in
+                    {(k[0], system.channels[k[1]] if k[1] is not None else None)
+                     for k in fitter.combinations}]
+    mismatch = bool(entries) or bool(undetermined) or any(
+        s.significant and g.significant(level) for s, g in zip(stats, structure, strict=True))
+    hit_channels = {e["channel"] for e in undetermined}
+    stats = [dataclasses.replace(s, significant=(s.significant and mismatch)
+                                 or s.channel in hit_channels) for s in stats]
     sig_idx = [i for i, s in enumerate(stats) if s.significant] or list(range(fitter.c))
     r_te = fitter.r[fitter.test] * fitter.w
     resid_te = r_te - sel.fit.total(fitter.n, fitter.c)[fitter.test] * fitter.w
@@ -495,7 +505,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "tried": [_jsonable(e) for e in sel.tried],
         "identifiability": sel.identifiability,
         "verdict": verdict(entries, stats, system, unexplained if base > 0 and any(
-            e["testable_held_out"] for e in entries) else None),
+            e["testable_held_out"] for e in entries) else None, bool(undetermined)),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
@@ -531,6 +541,12 @@ def _run(rec: Recording, system: Any, horizon: float | None,
             "signal_notes": list(res.warnings),
         },
     }
+    if undetermined:
+        data["verdict"] += " Not determined on this data (a significant held-out gain, " \
+            "not named): " + "; ".join(
+                f"{e['effect']} at {_channel_label(e['channel'])} (p = {e['p_value']:.2g}; "
+                + ", ".join(f"{k} = {v:.3g}" for k, v in e["params"].items()) + "): "
+                + e["reason"] for e in undetermined)
     if fitter.combinations:   # fitted as identifiable combinations, not named (fit.py)
         data["verdict"] += (" Not identifiable on this data (fitted as a combination, not "
                             "named): " + "; ".join(fitter.combinations.values()))
@@ -641,15 +657,20 @@ def _jsonable(entry: dict[str, Any]) -> dict[str, Any]:
 
 
 def verdict(entries: list[dict], stats: list[locate.ChannelStat], system: Any,
-            unexplained: float | None) -> str:
-    """One line: is there a mismatch, what is named, what is left."""
+            unexplained: float | None, undetermined: bool = False) -> str:
+    """One line: is there a mismatch, what is named, what is left.
+
+    ``undetermined``: a term passed its held-out test but its parameters are not
+    determined (said after this line).
+    """
     hit = [_channel_label(s.channel) for s in stats if s.significant]
     if not entries:
         if not hit:
             return "No mismatch beyond the noise: the nominal model explains this recording."
-        return (f"Mismatch at {', '.join(hit)}, not explained by a named effect (no "
-                "vocabulary effect passed and replicated the held-out tests): located, not "
-                "named.")
+        why = ("what fits it held out is not determined by the data" if undetermined else
+               "no vocabulary effect passed and replicated the held-out tests")
+        return (f"Mismatch at {', '.join(hit)}, not explained by a named effect ({why}): "
+                "located, not named.")
     names = "; ".join(e["text"] for e in entries)
     if unexplained is None:
         return f"Named: {names} (the held-out part cannot test them)."

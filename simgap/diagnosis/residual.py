@@ -25,7 +25,11 @@ every adapter shares:
   (:class:`Smoother`, scipy.signal.savgol_filter) and one smooth kernel with its exact
   derivatives (:class:`KernelFilter`). Each window is the shortest whose output noise (the
   column's error std times the filter's gain, :func:`choose_window`) stays below 2 % of the
-  estimated quantity's RMS, between 5 samples and 0.15 s.
+  estimated quantity's RMS, between 5 samples and 0.15 s. The column noise comes from
+  k-th differences, which see only the white part of a coloured error; the mechanical
+  adapter then compares the residual's upper pass band with the propagated floor's and,
+  when it holds more than twice the error, re-chooses the equation's window for the error
+  it shows (up to 0.25 s; :meth:`MechanicalSystem._error_excess`).
 * the residual's **noise floor** per channel, by propagation: the residual is recomputed with
   an extra white noise of each column's error std (quantisation included) and the RMS of the
   change is the floor (a seeded generator makes it reproducible); and the residual's
@@ -335,7 +339,8 @@ def _rms(x: np.ndarray) -> float:
 
 def choose_window(signals: list[np.ndarray], dt: float, deriv: int = 1,
                   noise: Sequence[float] | None = None, kind: str = "savgol",
-                  pre: np.ndarray | None = None, length: int | None = None) -> int:
+                  pre: np.ndarray | None = None, length: int | None = None,
+                  max_seconds: float = MAX_WINDOW_S) -> int:
     """Shortest odd window keeping each signal's derivative noise below 2 % of its RMS.
 
     Args:
@@ -350,12 +355,13 @@ def choose_window(signals: list[np.ndarray], dt: float, deriv: int = 1,
             derivative (the short inner smoother or differentiator); the noise gain is then
             that of the composition, and ``deriv`` only names the total order.
         length: shortest segment (samples); bounds the window.
+        max_seconds: longest window (s).
 
     Returns:
         Window length in samples (odd, at least 5, at most 0.15 s or the data length).
     """
     n = length or min(len(s) for s in signals)
-    w_max = max(MIN_WINDOW, int(MAX_WINDOW_S / dt) | 1)
+    w_max = max(MIN_WINDOW, int(max_seconds / dt) | 1)
     w_max = min(w_max, (n - 1) | 1 if (n - 1) % 2 else n - 2)
     w_max = max(w_max, MIN_WINDOW)
 

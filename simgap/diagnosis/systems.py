@@ -39,8 +39,10 @@ from numba import njit
 from scipy.signal import lfilter, savgol_coeffs
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
+from simgap.diagnosis.errormodel import MAD_TO_STD
 from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.residual import (
+    MAX_WINDOW_S,
     POLYORDER,
     KernelFilter,
     Smoother,
@@ -123,6 +125,12 @@ STICK_WIDTHS = 3.0
 #: Relative floor added to the noise floor: residuals below 0.1 % of the modelled force or
 #: torque RMS are numerical (derivative estimation, sample-and-hold) even in noise-free data.
 NUMERICAL_FLOOR = 1e-3
+#: The residual's high-band error (robust std) over the white floor's above which the
+#: equation's filter is chosen for the larger error (a factor 2 in std, as
+#: :data:`simgap.diagnosis.errormodel.HF_EXCESS` in power).
+ERROR_EXCESS = 2.0
+#: Longest kernel window (s) when it is chosen for such an error.
+EXCESS_WINDOW_S = 0.25
 #: Level of the test that gives logged inputs another lag than a held command's (ZOH).
 HOLD_ALPHA = 0.01
 #: Rows per block where a per-row product with M(q) is evaluated in blocks (M(q) is
@@ -159,8 +167,13 @@ def _quantised(m: Any) -> bool:
 LAG_NUISANCE_BINS = 8
 
 
-def _off_state(y: np.ndarray, state: np.ndarray) -> np.ndarray:
+def _off_state(y: np.ndarray, state: np.ndarray, linear: np.ndarray | None = None
+               ) -> np.ndarray:
     """``y`` (n, C) minus its least-squares fit on the state's bins (Frisch–Waugh).
+
+    ``linear`` (n, C, k), optional: per channel, k more regressors fitted jointly with the
+    bins (each channel its own coefficients): both ``y`` and they are cleared of the bins,
+    then ``y`` of them (Frisch–Waugh, the same least squares as one joint design).
 
     The nuisance model is additive in the state variables (each column of ``state``, e.g.
     q1, q2, q̇1, q̇2) with :data:`LAG_NUISANCE_BINS` quantile-bin indicators each: any
@@ -201,6 +214,11 @@ def _off_state(y: np.ndarray, state: np.ndarray) -> np.ndarray:
     for k, o in zip(idx, offsets, strict=True):
         table = np.vstack([np.zeros((1, y.shape[1])), coef[o + 1:o + int(k.max()) + 1]])
         out -= table[k]
+    if linear is not None:
+        for c in range(y.shape[1]):
+            x = _off_state(linear[:, c, :], state)
+            beta, *_ = np.linalg.lstsq(x, out[:, c], rcond=None)
+            out[:, c] -= x @ beta
     return out
 
 
@@ -407,8 +425,43 @@ class MechanicalSystem:
                 effect = effect.for_data(effect, sig, j, ctx)
                 if effect is None:
                     continue
+            if j is not None:
+                effect = self._resolvable(effect, j, ctx)
+                if effect is None:
+                    continue
             out.append((effect, j, channel))
         return out
+
+    def _resolvable(self, effect: Effect, j: int, ctx: EffectContext) -> Effect | None:
+        """The effect with its velocity scales no smaller than the fit can resolve.
+
+        Rows of a joint slower than :data:`STICK_WIDTHS` Coulomb widths (about 2 stds of
+        the filtered velocity noise each) are never fitted (:meth:`_fit_mask`). A nonlinear
+        parameter in velocity units (Stribeck's vs) below that speed describes a bump the
+        fit sees only by its far tail, where its amplitude is unbounded: measured on a
+        2π/4096 rad encoder (velocity noise 0.015 rad/s, mask 0.093 rad/s), the Stribeck
+        fit went to vs = 0.007 rad/s, Fs = 620 N·m (true 0.21 rad/s, 0.30 N·m), a spike on
+        a few rows that lost on held-out data. Its lower bound is raised to that speed
+        (start grid clipped to it); an effect whose whole range lies below it is not tried.
+        """
+        speed = f"{self.position_units[j]}/s"
+        if not any(u == speed for u in effect.nl_units):
+            return effect
+        floor = STICK_WIDTHS * float(ctx.coulomb_sigma[j])
+        bounds, grid = [], []
+        for u, (lo, hi), g in zip(effect.nl_units, effect.nl_bounds, effect.nl_grid,
+                                  strict=True):
+            if u != speed or lo >= floor:
+                bounds.append((lo, hi))
+                grid.append(g)
+                continue
+            if hi <= floor:
+                return None
+            bounds.append((floor, hi))
+            kept = tuple(v for v in g if floor < v < hi)
+            first = float(np.sqrt(floor * (kept or (hi,))[0]))  # between floor and grid
+            grid.append(kept if len(kept) >= len(g) else (first, *kept))
+        return dataclasses.replace(effect, nl_bounds=tuple(bounds), nl_grid=tuple(grid))
 
     # -- signals and residual ----------------------------------------------------------
     def _signals(self, raw: Mapping[str, np.ndarray], plan: _Plan, *,
@@ -516,12 +569,14 @@ class MechanicalSystem:
         held = self.residual_of(raw, plan)
         sampled = self.residual_of(raw, dataclasses.replace(plan, hold=0.0))
         valid = (plan.kernel or plan.inner).valid(len(held))
-        sig = self._signals(raw, plan, residual_only=True)   # q, dq: the same values
+        sig = self._signals(raw, plan)                         # q, dq: the same values
         state = np.concatenate([sig["q"], sig["dq"]], axis=1)[valid]
+        mass = self._mass_nuisance(sig, plan)[valid]
         del sig
         held -= sampled                                        # r(½) − r(0), in place
-        d, r0 = _off_state(held[valid], state), _off_state(sampled[valid], state)
-        del held, sampled, state
+        d = _off_state(held[valid], state, mass)
+        r0 = _off_state(sampled[valid], state, mass)
+        del held, sampled, state, mass
         lag, g = _lag_test(r0, d)
         if g is None:
             return plan, None
@@ -543,6 +598,25 @@ class MechanicalSystem:
             f"{100 * g.share_removed:.0f} % lower); an input delay shorter than half a log "
             "sample cannot be told from this and is not named")
 
+    def _mass_nuisance(self, sig: Mapping[str, np.ndarray], plan: _Plan) -> np.ndarray:
+        """Per channel, the mass-type regressors of the vocabulary (N, C, k), filtered.
+
+        An unmodelled mass (a payload, an inertia error) leaves A(q)·q̈ in the residual: a
+        function of the acceleration, which the hold's state bins (q, q̇) cannot clear and
+        which correlates with the input's rate. Left in, it swamped the lag's test: a
+        0.25–0.35 kg payload on 100 Hz logs of a 500 Hz loop kept ZOH (5 ms lag instead of
+        the true 1 ms; the clean logs chose 0.10–0.11 sample), and the lag's leftover was
+        then named as a viscous friction or a quadratic drag at joint 1. Regressors: each
+        channel's own acceleration (an inertia error) and, on the arm, the payload's torque
+        per kg (:meth:`payload_regressor`), through the equation's filter.
+        """
+        ddq = sig["ddq"]
+        cols = [ddq]
+        if self.is_manipulator:
+            sm = plan.kernel if plan.kernel is not None else plan.inner
+            cols.append(sm(self.payload_regressor(sig["q"], sig["dq"], ddq)))
+        return np.stack(cols, axis=2)
+
     def _constant_mass(self, q: np.ndarray) -> bool:
         """Whether M(q) is the same at (up to 200) recorded positions (relative 1e-9)."""
         m = self.mass(np.ascontiguousarray(q[:: max(1, len(q) // 200)]))
@@ -550,8 +624,12 @@ class MechanicalSystem:
 
     def _plan(self, raw: Mapping[str, np.ndarray], dt: float,
               bounds: tuple[tuple[int, int], ...], noise: Mapping[str, float],
-              from_q: bool) -> tuple[_Plan, np.ndarray, np.ndarray]:
-        """(filter plan, inner filter weights, velocity noise per joint) of a recording."""
+              from_q: bool, max_seconds: float = MAX_WINDOW_S
+              ) -> tuple[_Plan, np.ndarray, np.ndarray]:
+        """(filter plan, inner filter weights, velocity noise per joint) of a recording.
+
+        ``max_seconds``: longest kernel window (s).
+        """
         c = self.columns
         shortest = min(b - a for a, b in bounds)
         src = c.q if from_q else c.dq
@@ -574,7 +652,7 @@ class MechanicalSystem:
                             use="conv")
         k_w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
                             noise=[noise[k] for k in src], kind="kernel", pre=pre,
-                            length=shortest)
+                            length=shortest, max_seconds=max_seconds)
         plan = _Plan(inner=Smoother(inner_w, dt, bounds), kernel=KernelFilter(k_w, dt, bounds),
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
@@ -627,6 +705,28 @@ class MechanicalSystem:
         white = {k: (models[k].white_std if k in quant else v) for k, v in noise.items()}
         floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
                             quantised=quant)
+        if kernel is not None and not quant:   # a staircase's error is modelled as such
+            excess = self._error_excess(raw, plan, res, white)
+            if excess > ERROR_EXCESS:
+                src = c.q if from_q else c.dq
+                scaled = {k: v * excess if k in src else v for k, v in noise.items()}
+                new, pre_x, vel_x = self._plan(raw, dt, bounds, scaled, from_q,
+                                               max_seconds=EXCESS_WINDOW_S)
+                if new.kernel.window != kernel.window:
+                    warn.append(
+                        f"the residual's high-frequency error is {excess:.3g}x what the "
+                        "columns' white noise explains (coloured or under-estimated "
+                        "measurement error): the equation's filter is chosen for that "
+                        f"error ({kernel.window} -> {new.kernel.window} samples)")
+                    plan, pre, vel_noise = dataclasses.replace(new, hold=plan.hold), pre_x, \
+                        vel_x
+                    kernel = smoother = plan.kernel
+                    sig = self._signals(raw, plan)
+                    res = self._residual(sig, kernel)
+                    quant = {k: (models[k].quantum, sig["q"][:, j]) for j, k in enumerate(c.q)
+                             if self.is_manipulator and _quantised(models[k])}
+                    floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
+                                        quantised=quant)
         model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
                                     axis=0))
         floor = np.hypot(floor, NUMERICAL_FLOOR * model_rms)
@@ -648,6 +748,42 @@ class MechanicalSystem:
                                             for j in range(sig["q"].shape[1])),
                         state_derivative=sig["ddq"],
                         derivatives=tuple(("ddq", j) for j in range(self.n_channels)))
+
+    def _error_excess(self, raw: Mapping[str, np.ndarray], plan: _Plan, res: np.ndarray,
+                      white: Mapping[str, float]) -> float:
+        """How much larger the residual's high-frequency error is than the columns' explain.
+
+        The band is the kernel's upper pass band, r − K*r: physics (a function of the
+        operating point, of the trajectory's bandwidth) is mostly removed there, the
+        differentiated measurement error is not. Its robust std (1.4826·MAD, so that the
+        sparse kinks of a friction reversal do not count) is compared with the same band of
+        the propagated white floor (:func:`noise_floor`, same statistic). White column
+        noise gives ≤ 1; a velocity with 2 % AR(1) noise of 50 ms correlation time gives
+        ≈ 4–6 (its k-th differences see only the innovations).
+
+        Returns:
+            The largest ratio over the channels (1.0 when the floor is zero).
+        """
+        kernel = plan.kernel
+
+        def high(r: np.ndarray) -> np.ndarray:
+            return r - kernel(r)
+
+        valid = kernel.valid(len(res))
+        base = high(res)
+        rng = np.random.default_rng(0)
+        noisy = {k: v + rng.normal(0.0, white.get(k, 0.0), size=v.shape) for k, v in
+                 raw.items()}
+        change = high(self.residual_of(noisy, plan)) - base
+        del noisy
+
+        def robust(x: np.ndarray) -> np.ndarray:
+            return MAD_TO_STD * np.median(np.abs(x[valid]), axis=0)
+
+        floor = robust(change)
+        mine = robust(base)
+        ratio = np.where(floor > 0, mine / np.where(floor > 0, floor, 1.0), 1.0)
+        return float(np.max(ratio)) if ratio.size else 1.0
 
     def _fit_mask(self, sig: Mapping[str, np.ndarray], sigma: np.ndarray,
                   valid: np.ndarray | None = None) -> np.ndarray:
