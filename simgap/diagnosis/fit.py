@@ -751,6 +751,19 @@ class Fitter:
             fit = self.fit_new(current, hyp, full=False)
             self.ctx = ctx
             blocked = self._structural(fit, hyp, candidates)
+            alt = self._lookalike(hyp, blocked, ok, trials, gains) if blocked else None
+            if alt is not None:
+                # the pick is not identifiable here, but a declared look-alike of it at its
+                # channel (a dead zone's torque bias) is significant in this round: that is
+                # the identifiable form of the same residual, so it is tried instead
+                alt_fit = self.fit_new(current, trials[alt][0], full=False)
+                self.ctx = ctx
+                if not self._structural(alt_fit, trials[alt][0], candidates):
+                    evals[pick]["_nested"] = (
+                        f"; not identifiable ({'; '.join(blocked.values())}), so its "
+                        f"significant look-alike {'+'.join(t.label for t in trials[alt][0])} "
+                        "was picked instead")
+                    pick, hyp, fit, blocked = alt, trials[alt][0], alt_fit, {}
             if blocked:
                 # not identifiable as such on this data: fitted (the identifiable combination
                 # it carries is part of the model, so that no other term stands in for it)
@@ -833,6 +846,21 @@ class Fitter:
             return False
         return all(any(u.key == t.key or (u.index == t.index and u.effect.name in
                                           t.effect.generalizes) for t in big) for u in small)
+
+    @staticmethod
+    def _lookalike(hyp: Sequence[Term], blocked: dict, ok: Sequence[int],
+                   trials: Sequence[tuple], gains: Sequence[float]) -> int | None:
+        """The best significant single-term trial that a blocked term declares a look-alike.
+
+        ``blocked`` maps the non-identifiable terms' keys to their reasons; a trial
+        qualifies when its one term sits at the same channel as a blocked term and is named
+        in that term's ``confusable_with`` (:class:`~simgap.models.effects.EffectSpec`).
+        """
+        want = {(name, t.channel) for t in hyp if t.key in blocked
+                for name in t.effect.confusable_with}
+        cands = [i for i in ok if len(trials[i][0]) == 1
+                 and (trials[i][0][0].effect.name, trials[i][0][0].channel) in want]
+        return max(cands, key=lambda i: gains[i]) if cands else None
 
     def _nested_pick(self, pick: int, ok: Sequence[int], trials: Sequence[tuple],
                      held: Sequence[tuple], evals: Sequence[dict]) -> int:
