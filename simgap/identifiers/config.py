@@ -74,6 +74,13 @@ class IdentifierConfig:
             x̂_k is not. ``"measured"`` is the field's default and every thesis preset's
             (eq. 4.2 as printed, for reproduction); the ``auto`` preset uses
             ``"estimate"`` (:func:`auto_preset`: better on every scenario measured).
+        a_d_clean: noise gate of the observer laws (:func:`~simgap.identifiers.scales.whiteness`):
+            the observer gain used where x̃ is smooth (1/s; ≤ ``a_d``); each step uses
+            a_d + ρ⁺ (a_d_clean − a_d), ρ⁺ ∈ [0, 1] the measured smooth share of x̃, and η1, η2,
+            c_e alike. Needs ``scale_rate`` > 0 (the statistics' forgetting). 0 = off: the
+            fixed a_d, η1, η2 (every thesis preset; the ``auto`` integral law's on the arm).
+        eta1_clean: η1 at ``a_d_clean`` (unused when the gate is off).
+        eta2_clean: η2 at ``a_d_clean`` (unused when the gate is off).
     """
 
     n_hidden: int = 20
@@ -93,6 +100,9 @@ class IdentifierConfig:
     init: Literal["uniform", "lecun"] = "uniform"
     scale_rate: float = 0.0
     minibatch_input: Literal["measured", "estimate"] = "measured"
+    a_d_clean: float = 0.0
+    eta1_clean: float = 0.0
+    eta2_clean: float = 0.0
 
     def __post_init__(self) -> None:
         if self.minibatch_input not in ("measured", "estimate"):
@@ -110,7 +120,7 @@ class IdentifierConfig:
                 raise IdentifierError(f"IdentifierConfig.{name} must be a positive integer, "
                                       f"got {v!r}")
         for name in ("w0_scale", "v0_scale", "eta1", "eta2", "rho1", "rho2", "lam",
-                     "max_weight_norm", "scale_rate"):
+                     "max_weight_norm", "scale_rate", "eta1_clean", "eta2_clean"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
                     or v < 0:
@@ -123,6 +133,14 @@ class IdentifierConfig:
                 or not math.isfinite(self.a_d) or self.a_d >= 0:
             raise IdentifierError("IdentifierConfig.a_d must be a finite negative number "
                                   f"(A_d = a_d·I must be Hurwitz), got {self.a_d!r}")
+        adc = self.a_d_clean
+        if isinstance(adc, bool) or not isinstance(adc, int | float) or not math.isfinite(adc) \
+                or adc > 0 or (adc != 0 and adc > self.a_d):
+            raise IdentifierError("IdentifierConfig.a_d_clean must be 0 (noise gate off) or a "
+                                  f"finite number ≤ a_d = {self.a_d!r}, got {adc!r}")
+        if adc != 0 and self.scale_rate <= 0:
+            raise IdentifierError("IdentifierConfig.a_d_clean (the noise gate) needs "
+                                  "scale_rate > 0, the forgetting rate of its statistics")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-serialisable dict of the fields."""
@@ -208,6 +226,11 @@ AUTO_HIDDEN_RATE_RATIO: dict[str, float] = {"instantaneous": 4.0, "integral": 4.
 AUTO_INTEGRAL_POLE_STEP = -0.2
 #: Largest λ·Δt of the ``auto`` preset's integral law (z's Euler pole 1 − λΔt ≥ 0.5).
 AUTO_MAX_LAM_STEP = 0.5
+#: Fastest observer of the ``auto`` integral law's clean-data endpoint (noise gate), |a_d|
+#: (1/s): 5 × :data:`AUTO_MAX_OBSERVER_RATE`, reached from Δt ≤ 2 ms on (the largest measured).
+AUTO_CLEAN_MAX_OBSERVER_RATE = 100.0
+#: Largest κ of the ``auto`` integral law's clean-data endpoint (the largest measured).
+AUTO_CLEAN_MAX_HIDDEN_RATE_RATIO = 24.0
 
 
 def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
@@ -360,28 +383,40 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
         lam = AUTO_MAX_LAM_STEP / dt
     period = 5
     n_hidden = 20
+    gate: dict[str, float] = {}
     if kind == "minibatch":
         eta = gamma * period / dt
     elif kind == "integral":
         eta = gamma * lam * a_d * a_d
+        # noise gate: on clean data the observer and the hidden layer at their discrete limits
+        a_c = -min(-AUTO_INTEGRAL_POLE_STEP / dt, AUTO_CLEAN_MAX_OBSERVER_RATE)
+        kappa_c = min(max(kappa, lam / (2.0 * gamma) - 1.0), AUTO_CLEAN_MAX_HIDDEN_RATE_RATIO)
+        if a_c < a_d or kappa_c > kappa:
+            a_c = min(a_c, a_d)
+            eta_c = gamma * lam * a_c * a_c
+            gate = dict(a_d_clean=a_c, eta1_clean=eta_c, eta2_clean=kappa_c * eta_c)
     else:
         eta = gamma * a_d * a_d
     return IdentifierConfig(n_hidden=n_hidden, w0_scale=0.0, v0_scale=0.0, init="lecun", a_d=a_d,
                             eta1=eta, eta2=kappa * eta, rho1=0.0, rho2=0.0, lam=lam,
                             buffer_size=1000, batch_size=32, update_period=period,
                             normalize_gradients=True, scale_rate=AUTO_SCALE_RATIO * gamma,
-                            minibatch_input="estimate" if kind == "minibatch" else "measured")
+                            minibatch_input="estimate" if kind == "minibatch" else "measured",
+                            **gate)
 
 
-def error_scale(kind: str, config: IdentifierConfig, dt: float) -> float:
+def error_scale(kind: str, config: IdentifierConfig, dt: float, *, clean: bool = False
+                ) -> float:
     """c_e of :func:`~simgap.identifiers.laws.normalised_rates` (0 = plain gradients).
 
     a_d² (baseline 1), λ a_d² (integral law), 1/Δt² (baseline 2); derivation in
-    :func:`auto_preset`.
+    :func:`auto_preset`. ``clean``: with ``a_d_clean`` in place of a_d (the noise gate's
+    clean-data endpoint).
     """
     if not config.normalize_gradients:
         return 0.0
     if kind == "minibatch":
         return 1.0 / (dt * dt)
-    ce = config.a_d * config.a_d
+    a_d = config.a_d if not clean else config.a_d_clean
+    ce = a_d * a_d
     return ce * config.lam if kind == "integral" else ce

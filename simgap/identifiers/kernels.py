@@ -70,6 +70,8 @@ from simgap.identifiers.scales import (
     rms,
     scale_outputs,
     update_scales,
+    update_whiteness,
+    whiteness,
 )
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
@@ -83,7 +85,11 @@ HP_ESCALE = 19
 #: Rate of the running input / output scales (1/s, :mod:`~simgap.identifiers.scales`);
 #: 0 = raw inputs and outputs (every thesis preset).
 HP_SRATE = 20
-HP_SIZE = 21
+#: Noise gate (:func:`~simgap.identifiers.scales.whiteness`): a_d, η1, η2 and c_e on clean
+#: data; the step uses x + ρ⁺ (x_clean − x). a_d_clean = 0: off (every preset but the
+#: ``auto`` integral law's).
+HP_ADC, HP_ETA1C, HP_ETA2C, HP_ESCALEC = 21, 22, 23, 24
+HP_SIZE = 25
 #: ``HP_MODE`` of baseline 2 learning on the observer's x̂ (``minibatch_input="estimate"``).
 MB_ESTIMATE = 3
 
@@ -252,6 +258,17 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     io = i * n
     dt = R[HP_DT]
     a_d = R[HP_AD]
+    eta1 = R[HP_ETA1]
+    eta2 = R[HP_ETA2]
+    ce = R[HP_ESCALE]
+    ons = scale_block(n, m, h)
+    adc = R[HP_ADC]
+    if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
+        wg = whiteness(R, ons, p)
+        a_d += wg * (adc - a_d)
+        eta1 += wg * (R[HP_ETA1C] - eta1)
+        eta2 += wg * (R[HP_ETA2C] - eta2)
+        ce += wg * (R[HP_ESCALEC] - ce)
     fresh = R[oini] == 0.0  # fresh observer: x̂_k = x_k, z_k = 0
     for r in range(n):
         xr = x[_ix(io + r)]
@@ -262,7 +279,6 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         T[_ix(txb + n + c)] = u[_ix(i * m + c)]
     # ĝ_k with the weights before the update (the pre-activations are kept for the update)
     rate = R[HP_SRATE]
-    ons = scale_block(n, m, h)
     if rate > 0.0:  # running scales: ĝ = s ⊙ Ŵ tanh(V̂ (x̄ ⊘ r))
         txn, ty = norm_scratch(n, m, h)
         normalise_inputs(R, ons, p, T, txb, T, txn)
@@ -292,9 +308,8 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             for r in range(n):
                 T[_ix(td + r)] *= inv
         leak = dt * np.sqrt(dot(T, txt, T, txt, n))
-        k1 = dt * R[HP_ETA1]
-        k2 = dt * R[HP_ETA2]
-        ce = R[HP_ESCALE]
+        k1 = dt * eta1
+        k2 = dt * eta2
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
             dd = bound_error2(mode, T, td, txt, n, inv / (a_d * R[HP_LAM]))
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
@@ -309,6 +324,8 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             R[_ix(oz + r)] = 0.0
     if act == LEARN and mode == INTEGRAL:
         z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
+    if act == LEARN and adc != 0.0:
+        update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, rate, dt)
     if act == LEARN and rate > 0.0:
         update_scales(R, ow, n, h, p, ons, T, txb, T, ty + n, rate, dt, HP_NORM2)
     for r in range(n):
