@@ -307,7 +307,12 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             inv = delta_factor(R, ons, p, rms(T, ty + n, n))
             for r in range(n):
                 T[_ix(td + r)] *= inv
-        leak = dt * np.sqrt(dot(T, txt, T, txt, n))
+        l1 = 0.0
+        l2 = 0.0
+        if R[HP_RHO1] != 0.0 or R[HP_RHO2] != 0.0:  # leakage Δt ρ_i ‖x̃‖ (none in "auto")
+            leak = dt * np.sqrt(dot(T, txt, T, txt, n))
+            l1 = leak * R[HP_RHO1]
+            l2 = leak * R[HP_RHO2]
         k1 = dt * eta1
         k2 = dt * eta2
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
@@ -315,7 +320,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
                                       dd, jacobian_norm2(R, ow, n, h, T, ts), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
-                              leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
+                              l1, l2, R[HP_MAXN], HP_NORM2,
                               tsc):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results
