@@ -298,13 +298,15 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
                                                    - a_d * T[_ix(txt + r)])
     if not _finite(T, txh1, n):
         return STATUS_STATE_DIVERGED
+    eps_rms = 0.0  # RMS of the residual sample ε_k (running scales only)
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
         inv = 1.0
         if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
             for r in range(n):
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
-            inv = delta_factor(R, ons, p, rms(T, ty + n, n))
+            eps_rms = rms(T, ty + n, n)
+            inv = delta_factor(R, ons, p, eps_rms)
             for r in range(n):
                 T[_ix(td + r)] *= inv
         l1 = 0.0
@@ -332,7 +334,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     if act == LEARN and adc != 0.0:
         update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, rate, dt)
     if act == LEARN and rate > 0.0:
-        update_scales(R, ow, n, h, p, ons, T, txb, T, ty + n, rate, dt, HP_NORM2)
+        update_scales(R, ow, n, h, p, ons, T, txb, eps_rms, rate, dt, HP_NORM2)
     for r in range(n):
         xh1 = T[_ix(txh1 + r)]
         R[_ix(oxh + r)] = xh1
@@ -578,7 +580,7 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
                 for r in range(n):
                     T[_ix(ty + r)] = ((x_next[_ix(io + r)] - x[_ix(io + r)]) / dt
                                       - f[_ix(io + r)])
-                update_scales(R, ow, n, h, p, ons, R, oxb, T, ty, rate, dt, HP_NORM2)
+                update_scales(R, ow, n, h, p, ons, R, oxb, rms(T, ty, n), rate, dt, HP_NORM2)
     return nfail, ndue
 
 

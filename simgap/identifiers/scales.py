@@ -104,11 +104,12 @@ def delta_factor(R, ons, p, sample_rms):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def update_scales(R, ow, n, h, p, ons, xb, oxb, eps, oeps, rate, dt,
+def update_scales(R, ow, n, h, p, ons, xb, oxb, e, rate, dt,
                   onorm):  # pragma: no cover - compiled
     """One step of the running statistics and the output-preserving rescale of Ŵ.
 
-    ``xb[oxb:]`` holds the raw x̄_k (p), ``eps[oeps:]`` the residual sample ε_k (n). The
+    ``xb[oxb:]`` holds the raw x̄_k (p), ``e`` is the RMS of the residual sample ε_k
+    (:func:`rms` over its n rows; the caller has it already for :func:`delta_factor`). The
     squared norm ‖Ŵ‖² at ``R[onorm]`` follows the rescale (V̂ is not touched).
     """
     k = R[ons]
@@ -120,7 +121,6 @@ def update_scales(R, ow, n, h, p, ons, xb, oxb, eps, oeps, rate, dt,
         R[_ix(om + c)] = old + beta * (v * v - old)
     oo = om + p
     old = R[oo]
-    e = rms(eps, oeps, n)
     new = old + beta * (e * e - old)
     R[oo] = new
     if old > 0.0 and new > 0.0 and old != new:

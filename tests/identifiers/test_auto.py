@@ -167,8 +167,8 @@ def test_running_scales_preserve_the_function_and_give_raw_unit_weights(kind):
     ons = K.scale_block.py_func(n, m, h)
     m_out_before = ident._scale_stats()[1].copy()
     same_inputs = np.sqrt(ident._scale_stats()[0][0])  # v² = m: the input scales stay
-    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0,
-                  np.full(n, 3.0), 0, 50.0, 0.002, K.HP_NORM2)
+    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0, 3.0, 50.0, 0.002,
+                  K.HP_NORM2)
     assert not np.allclose(ident._scale_stats()[1], m_out_before)
     np.testing.assert_allclose(ident.predict(xb), before, rtol=1e-12, atol=1e-14)
     w = ident._state[0, K.HP_SIZE:K.HP_SIZE + n * h]
