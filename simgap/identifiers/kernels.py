@@ -7,7 +7,8 @@ identifier i and holds, at the offsets returned by :func:`row_layout`:
   max weight norm, n, m, n_h, error-signal code, P_upd, the row's activity (0 = not a
   transition: row untouched; 1 = frozen: x̂ runs, no weight / z / buffer update; 2 = learn)
   the status of its last step (``STATUS_*``), two counters (steps taken, weight updates
-  made), and ‖Ŵ‖_F², ‖V̂‖_F² (kept up to date for the divergence bound);
+  made), ‖Ŵ‖_F², ‖V̂‖_F² (kept up to date for the divergence bound), c_e, the scales' rate,
+  and the noise gate's clean-data a_d, η1, η2, c_e (``HP_ADC`` …);
 * θ: Ŵ (n × n_h) and V̂ᵀ (p × n_h) (layout of :mod:`~simgap.identifiers.network`), x̂ (n),
   z (n), initialised flag (1);
 * results of the last step: ĝ_k (n), x̄_k (p), x̂_{k+1} (n), x̃_{k+1} (n), e_k (n).
