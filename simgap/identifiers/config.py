@@ -140,7 +140,8 @@ class IdentifierConfig:
                                   f"finite number ≤ a_d = {self.a_d!r}, got {adc!r}")
         if adc != 0 and self.scale_rate <= 0:
             raise IdentifierError("IdentifierConfig.a_d_clean (the noise gate) needs "
-                                  "scale_rate > 0, the forgetting rate of its statistics")
+                                  "scale_rate > 0, the forgetting rate of its statistics; "
+                                  "pass a_d_clean=0 too to turn the gate off")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-serialisable dict of the fields."""
