@@ -345,9 +345,10 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       the fixed law. Measured, seeds 0-2, last part / consistency: sines 0.090-0.095 →
       0.067 / 0.137-0.162, Case 1 0.031-0.033 → 0.021-0.022 / 0.029-0.032, Case 1 noise
       k = 10 and 50 unchanged (0.041-0.047, 0.102-0.126). Downstream (arm compensation,
-      seeds 0-2) online tracking improves (0.030-0.034 → 0.025-0.027 rad) while the frozen
-      network, used off its training trajectory, extrapolates worse on seed 0 (0.028-0.052
-      rad against 0.024-0.043). Cost: two running means, +2-4 % per step.
+      seed 0) online tracking improves (0.030 → 0.025 rad) while the frozen network, used
+      off its training trajectory, extrapolates worse (0.028 → 0.052 rad; seeds 0-2 with
+      the gate: online 0.025-0.027, frozen 0.028-0.052). Cost: two running means, +2-4 %
+      per step.
     * Hidden-layer normaliser ‖Ŵ D‖_F² (D = I − Λ) rather than ‖Ŵ‖_F²
       (:func:`~simgap.identifiers.laws.normalised_rates`): it bounds the same output move
       (‖x̄‖² Ŵ D² Ŵᵀ) more tightly, so saturated units do not shrink the step twice (once
