@@ -154,13 +154,18 @@ def auto_scale_cost(kind: str, rows: list, runs: int) -> dict:
     """Cost of the running scales: ``auto`` with and without them, interleaved runs.
 
     Without = ``preset("auto", kind, dt)`` with ``scale_rate=0`` (the auto preset before the
-    scales, same kernel); per-step means of whole loops (µs), alternating A, B, A, B …;
-    the ratio of the medians and of the best runs (the least contended, as ``timeit``
-    reports: on a loaded machine a run is either clean or preempted, so medians swing).
+    scales, same kernel; the integral law's noise gate, which needs the scales, off too);
+    per-step means of whole loops (µs), alternating A, B, A, B …; the ratio of the medians
+    and of the best runs (the least contended, as ``timeit`` reports: on a loaded machine a
+    run is either clean or preempted, so medians swing). ``thesis`` is the thesis
+    manipulator preset in the same rotation (``ratio_vs_thesis``: the whole ``auto`` step
+    against it).
     """
     clock = time.perf_counter_ns
     cfg = preset("auto", kind, dt=0.002)
-    cfgs = {"without_scales": cfg.replace(scale_rate=0.0), "with_scales": cfg}
+    cfgs = {"without_scales": cfg.replace(scale_rate=0.0, a_d_clean=0.0, eta1_clean=0.0,
+                                          eta2_clean=0.0),
+            "with_scales": cfg, "thesis": preset("manipulator", kind)}
     means: dict[str, list[float]] = {k: [] for k in cfgs}
     for run in range(runs):
         for name, c in cfgs.items():
@@ -174,7 +179,8 @@ def auto_scale_cost(kind: str, rows: list, runs: int) -> dict:
     best = {k: float(np.min(v)) for k, v in means.items()}
     return {"median_us": med, "ratio": med["with_scales"] / med["without_scales"],
             "best_us": best, "ratio_best": best["with_scales"] / best["without_scales"],
-            "runs": runs}
+            "ratio_vs_thesis": med["with_scales"] / med["thesis"],
+            "ratio_vs_thesis_best": best["with_scales"] / best["thesis"], "runs": runs}
 
 
 def batched(kind: str, n_env: int, reps: int) -> dict:

@@ -74,6 +74,13 @@ class IdentifierConfig:
             x̂_k is not. ``"measured"`` is the field's default and every thesis preset's
             (eq. 4.2 as printed, for reproduction); the ``auto`` preset uses
             ``"estimate"`` (:func:`auto_preset`: better on every scenario measured).
+        a_d_clean: noise gate of the observer laws (:func:`~simgap.identifiers.scales.whiteness`):
+            the observer gain used where x̃ is smooth (1/s; ≤ ``a_d``); each step uses
+            a_d + ρ⁺ (a_d_clean − a_d), ρ⁺ ∈ [0, 1] the measured smooth share of x̃, and η1, η2,
+            c_e alike. Needs ``scale_rate`` > 0 (the statistics' forgetting). 0 = off: the
+            fixed a_d, η1, η2 (every thesis preset; the ``auto`` integral law's on the arm).
+        eta1_clean: η1 at ``a_d_clean`` (unused when the gate is off).
+        eta2_clean: η2 at ``a_d_clean`` (unused when the gate is off).
     """
 
     n_hidden: int = 20
@@ -93,6 +100,9 @@ class IdentifierConfig:
     init: Literal["uniform", "lecun"] = "uniform"
     scale_rate: float = 0.0
     minibatch_input: Literal["measured", "estimate"] = "measured"
+    a_d_clean: float = 0.0
+    eta1_clean: float = 0.0
+    eta2_clean: float = 0.0
 
     def __post_init__(self) -> None:
         if self.minibatch_input not in ("measured", "estimate"):
@@ -110,7 +120,7 @@ class IdentifierConfig:
                 raise IdentifierError(f"IdentifierConfig.{name} must be a positive integer, "
                                       f"got {v!r}")
         for name in ("w0_scale", "v0_scale", "eta1", "eta2", "rho1", "rho2", "lam",
-                     "max_weight_norm", "scale_rate"):
+                     "max_weight_norm", "scale_rate", "eta1_clean", "eta2_clean"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
                     or v < 0:
@@ -123,6 +133,15 @@ class IdentifierConfig:
                 or not math.isfinite(self.a_d) or self.a_d >= 0:
             raise IdentifierError("IdentifierConfig.a_d must be a finite negative number "
                                   f"(A_d = a_d·I must be Hurwitz), got {self.a_d!r}")
+        adc = self.a_d_clean
+        if isinstance(adc, bool) or not isinstance(adc, int | float) or not math.isfinite(adc) \
+                or adc > 0 or (adc != 0 and adc > self.a_d):
+            raise IdentifierError("IdentifierConfig.a_d_clean must be 0 (noise gate off) or a "
+                                  f"finite number ≤ a_d = {self.a_d!r}, got {adc!r}")
+        if adc != 0 and self.scale_rate <= 0:
+            raise IdentifierError("IdentifierConfig.a_d_clean (the noise gate) needs "
+                                  "scale_rate > 0, the forgetting rate of its statistics; "
+                                  "pass a_d_clean=0 too to turn the gate off")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-serialisable dict of the fields."""
@@ -208,6 +227,11 @@ AUTO_HIDDEN_RATE_RATIO: dict[str, float] = {"instantaneous": 4.0, "integral": 4.
 AUTO_INTEGRAL_POLE_STEP = -0.2
 #: Largest λ·Δt of the ``auto`` preset's integral law (z's Euler pole 1 − λΔt ≥ 0.5).
 AUTO_MAX_LAM_STEP = 0.5
+#: Fastest observer of the ``auto`` integral law's clean-data endpoint (noise gate), |a_d|
+#: (1/s): 5 × :data:`AUTO_MAX_OBSERVER_RATE`, reached from Δt ≤ 2 ms on (the largest measured).
+AUTO_CLEAN_MAX_OBSERVER_RATE = 100.0
+#: Largest κ of the ``auto`` integral law's clean-data endpoint (the largest measured).
+AUTO_CLEAN_MAX_HIDDEN_RATE_RATIO = 24.0
 
 
 def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
@@ -283,19 +307,48 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       0.134-0.172 (seed 0: λ = 50, 100, 250 at a_d = −50: 0.139, 0.139, 0.134; with the
       x̃-bounded hidden step of :func:`~simgap.identifiers.laws.bound_error2` on top,
       0.102-0.126), Case 1 0.031-0.033 → 0.029-0.037 (0.032-0.034 with it).
-      Why the sines stay above 0.08 (measured, seed 0): not the network's size or inputs:
-      the offline least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS)
-      on the same data reaches 0.040 (0.037 with a bias, 0.036 with 40 units, 0.019 with
-      the joint velocities as inputs), but that optimum
-      has hidden gains up to ~70 and a Ŵ with cancellations: learning Ŵ online on those
-      very features gives 0.22. What an online law reaches at γ = 5 s⁻¹ is set by how fast
-      it tracks: an emulated law with the lag-free residual error as its signal plateaus
-      at 0.085 (the learnt V̂ rows keep norms 1-2, ĝ stays smooth through every Coulomb
-      jump at dq = 0, where half the error is); the observer's lag adds 0.085 → 0.103, z's
-      (λ = 50) → 0.115; six passes over the 120 s leave the integral law (a_d = −20,
-      λ = 50) at 0.087. Faster tracking (γ × 1.5-2 or κ = 8) reaches 0.082-0.087 but failed
-      the noise item (0.17-0.20) before the x̃ bound; with it, κ = 8 gives sines 0.084,
-      noise 0.142 (seed 0): still above 0.08, at the price of Case 2-1 (κ above).
+      What limits the sines (seed 0): not the network's size or inputs: the offline
+      least-squares fit of the same network (20 tanh units, no bias, x̄ ⊘ RMS) reaches
+      0.040 (0.019 with the joint velocities as inputs), with hidden gains up to ~70; an
+      online law at γ = 5 s⁻¹ is limited by how fast it tracks (an emulated law fed the
+      lag-free residual error plateaus at 0.085; half the error sits at the Coulomb jumps
+      at dq = 0, through which ĝ stays smooth). What tracks is the hidden layer: with the
+      observer at its Euler limit a_d = −0.2/Δt = −100 s⁻¹ (γ unchanged), κ = 8, 10, 12,
+      16, 24 give sines 0.081-0.082, 0.078-0.079, 0.075-0.076, 0.070-0.074, 0.067 (seeds
+      0-2) and Case 1 0.026 → 0.022 (consistency 0.029-0.036 throughout); faster Ŵ (γ × 2,
+      κ = 4) only 0.083-0.086. Those rates are what sensor noise forbids (next item).
+    * Noise gate of the integral law (``a_d_clean``, ``eta1_clean``, ``eta2_clean``;
+      :func:`~simgap.identifiers.scales.whiteness`). The rates above are limited by two
+      different things: on clean data by the discrete loop (observer pole, z's damping),
+      under sensor noise by the noise the observer and the hidden layer pass on (Case 1,
+      k = 50, consistency: a_d = −100 with κ = 4 0.154-0.186, κ = 12 0.124-0.203; bar
+      0.15). Which one applies is measurable online: x̃ = x − x̂ is the observer's smooth
+      response to the residual error (power S, correlated from step to step) plus the white
+      sensor noise of the measured x (power N, uncorrelated), so the lag-1 autocorrelation
+      ρ⁺ = ⟨x̃_{k+1}·x̃_k⟩ / ⟨‖x̃_k‖²⟩ ≈ S / (S + N) (clipped to [0, 1]) is the Wiener gain
+      of the error signal. Each step uses
+
+          a_d(ρ⁺) = a_d + ρ⁺ (a_d,c − a_d),   η_i(ρ⁺) and c_e(ρ⁺) alike,
+
+      between the noise-safe rates above (ρ⁺ = 0) and a clean-data endpoint at the
+      discrete limits (ρ⁺ = 1): the observer at its Euler limit, a_d,c = −0.2/Δt (pole 0.8,
+      at most −100 s⁻¹, the fastest measured), and the hidden layer as fast as z's damping
+      allows, λ = 2(1 + κ_c)γ: κ_c = λ/(2γ) − 1 (at least κ, at most 24, the largest
+      measured), with η1,c = γ λ a_d,c², η2,c = κ_c η1,c. Since η1 = γ c_e at both ends,
+      η1(ρ⁺)/c_e(ρ⁺) = γ at every ρ⁺: the gate changes the observer and the hidden layer,
+      never the output layer's rate. Measured ρ⁺: 0.985-0.999 on Case 1, the sines, Cases
+      2-1 and 2-2; 0 (raw −0.05 to −0.03) with noise k = 10 and 50, where the gate leaves
+      the noise-safe law exactly as it was. The statistics forget at ``scale_rate`` and
+      start at ρ⁺ = 0 (the noise-safe end). On the arm (Δt = 2 ms): a_d,c = −100 s⁻¹,
+      κ_c = 24; the bicycle (10 ms) and ``Pendulum-v1`` (50 ms) are at both limits
+      already (a_d,c = a_d, κ_c ≤ κ): the gate is off there and their numbers are those of
+      the fixed law. Measured, seeds 0-2, last part / consistency: sines 0.090-0.095 →
+      0.067 / 0.137-0.162, Case 1 0.031-0.033 → 0.021-0.022 / 0.029-0.032, Case 1 noise
+      k = 10 and 50 unchanged (0.041-0.047, 0.102-0.126). Downstream (arm compensation,
+      seed 0) online tracking improves (0.030 → 0.025 rad) while the frozen network, used
+      off its training trajectory, extrapolates worse (0.028 → 0.052 rad; seeds 0-2 with
+      the gate: online 0.025-0.027, frozen 0.028-0.052). Cost: two running means, +2-4 %
+      per step.
     * Hidden-layer normaliser ‖Ŵ D‖_F² (D = I − Λ) rather than ‖Ŵ‖_F²
       (:func:`~simgap.identifiers.laws.normalised_rates`): it bounds the same output move
       (‖x̄‖² Ŵ D² Ŵᵀ) more tightly, so saturated units do not shrink the step twice (once
@@ -360,28 +413,40 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
         lam = AUTO_MAX_LAM_STEP / dt
     period = 5
     n_hidden = 20
+    gate: dict[str, float] = {}
     if kind == "minibatch":
         eta = gamma * period / dt
     elif kind == "integral":
         eta = gamma * lam * a_d * a_d
+        # noise gate: on clean data the observer and the hidden layer at their discrete limits
+        a_c = -min(-AUTO_INTEGRAL_POLE_STEP / dt, AUTO_CLEAN_MAX_OBSERVER_RATE)
+        kappa_c = min(max(kappa, lam / (2.0 * gamma) - 1.0), AUTO_CLEAN_MAX_HIDDEN_RATE_RATIO)
+        if a_c < a_d or kappa_c > kappa:
+            a_c = min(a_c, a_d)
+            eta_c = gamma * lam * a_c * a_c
+            gate = dict(a_d_clean=a_c, eta1_clean=eta_c, eta2_clean=kappa_c * eta_c)
     else:
         eta = gamma * a_d * a_d
     return IdentifierConfig(n_hidden=n_hidden, w0_scale=0.0, v0_scale=0.0, init="lecun", a_d=a_d,
                             eta1=eta, eta2=kappa * eta, rho1=0.0, rho2=0.0, lam=lam,
                             buffer_size=1000, batch_size=32, update_period=period,
                             normalize_gradients=True, scale_rate=AUTO_SCALE_RATIO * gamma,
-                            minibatch_input="estimate" if kind == "minibatch" else "measured")
+                            minibatch_input="estimate" if kind == "minibatch" else "measured",
+                            **gate)
 
 
-def error_scale(kind: str, config: IdentifierConfig, dt: float) -> float:
+def error_scale(kind: str, config: IdentifierConfig, dt: float, *, clean: bool = False
+                ) -> float:
     """c_e of :func:`~simgap.identifiers.laws.normalised_rates` (0 = plain gradients).
 
     a_d² (baseline 1), λ a_d² (integral law), 1/Δt² (baseline 2); derivation in
-    :func:`auto_preset`.
+    :func:`auto_preset`. ``clean``: with ``a_d_clean`` in place of a_d (the noise gate's
+    clean-data endpoint).
     """
     if not config.normalize_gradients:
         return 0.0
     if kind == "minibatch":
         return 1.0 / (dt * dt)
-    ce = config.a_d * config.a_d
+    a_d = config.a_d if not clean else config.a_d_clean
+    ce = a_d * a_d
     return ce * config.lam if kind == "integral" else ce

@@ -42,16 +42,18 @@ FORMAT_V2 = "simgap-identifier/2"
 HEADER_FIELDS: dict[str, int] = {
     "n_hidden": K.HP_H, "a_d": K.HP_AD, "eta1": K.HP_ETA1, "eta2": K.HP_ETA2,
     "rho1": K.HP_RHO1, "rho2": K.HP_RHO2, "lam": K.HP_LAM, "update_period": K.HP_PERIOD,
-    "max_weight_norm": K.HP_MAXN, "scale_rate": K.HP_SRATE}
+    "max_weight_norm": K.HP_MAXN, "scale_rate": K.HP_SRATE, "a_d_clean": K.HP_ADC,
+    "eta1_clean": K.HP_ETA1C, "eta2_clean": K.HP_ETA2C}
 #: Every header slot fixed at construction (the config's, Δt, sizes, error-signal code, c_e):
 #: a loaded state must carry exactly these values.
 FIXED_SLOTS: np.ndarray = np.array(sorted(
-    {*HEADER_FIELDS.values(), K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE}), dtype=np.int64)
+    {*HEADER_FIELDS.values(), K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE,
+     K.HP_ESCALEC}), dtype=np.int64)
 #: What each fixed header slot holds (meta field or config field), for error messages.
 _SLOT_NAMES: dict[int, str] = {
     **{slot: f"config {name}" for name, slot in HEADER_FIELDS.items()},
     K.HP_DT: "dt", K.HP_N: "n_states", K.HP_M: "n_inputs", K.HP_MODE: "the kind's code",
-    K.HP_ESCALE: "the error scale c_e"}
+    K.HP_ESCALE: "the error scale c_e", K.HP_ESCALEC: "the clean-data error scale"}
 #: Header size of format 2 files (before ``HP_SRATE``; no scale block at the row end).
 _HP_SIZE_V2 = 20
 
@@ -67,19 +69,22 @@ def upgrade_v2(meta: dict[str, Any], arrays: dict[str, np.ndarray]
     """Format 2 meta and arrays as format 3 (same identifier, no running scales).
 
     Format 2 rows have a 20-slot header and no scale block: the header gains
-    ``HP_SRATE`` = 0 and the row an all-zero scale block; the config gains
-    ``scale_rate`` = 0. Sizes are checked later, against the identifier built from the meta.
+    ``HP_SRATE`` and the noise-gate slots (all 0) and the row an all-zero scale block; the
+    config gains ``scale_rate`` = 0 and ``a_d_clean`` = ``eta1_clean`` = ``eta2_clean`` = 0.
+    Sizes are checked later, against the identifier built from the meta.
     """
     meta = dict(meta)
     cfg = dict(meta["config"])
-    cfg.setdefault("scale_rate", 0.0)
+    for name in ("scale_rate", "a_d_clean", "eta1_clean", "eta2_clean"):
+        cfg.setdefault(name, 0.0)
     meta["config"] = cfg
     meta["format"] = FORMAT
     arrays = dict(arrays)
     old = np.asarray(arrays["state"])
     if old.ndim == 2 and old.shape[1] >= _HP_SIZE_V2:
         n, m = int(meta["n_states"]), int(meta["n_inputs"])
-        new = np.zeros((old.shape[0], old.shape[1] + 1 + K.block_size.py_func(n, n + m)))
+        new = np.zeros((old.shape[0], old.shape[1] + K.HP_SIZE - _HP_SIZE_V2
+                        + K.block_size.py_func(n, n + m)))
         new[:, :_HP_SIZE_V2] = old[:, :_HP_SIZE_V2]
         new[:, K.HP_SIZE:K.HP_SIZE + old.shape[1] - _HP_SIZE_V2] = old[:, _HP_SIZE_V2:]
         arrays["state"] = new
@@ -134,6 +139,8 @@ class IdentifierBase:
         hp[K.HP_MODE] = (K.MB_ESTIMATE if kind == "minibatch"
                          and config.minibatch_input == "estimate" else KIND_CODES[kind])
         hp[K.HP_ESCALE] = error_scale(kind, config, dt)
+        if config.a_d_clean != 0:
+            hp[K.HP_ESCALEC] = error_scale(kind, config, dt, clean=True)
         self._hp = hp
         self._minibatch = kind == "minibatch"
         size = config.buffer_size if self._minibatch else 1

@@ -7,7 +7,8 @@ identifier i and holds, at the offsets returned by :func:`row_layout`:
   max weight norm, n, m, n_h, error-signal code, P_upd, the row's activity (0 = not a
   transition: row untouched; 1 = frozen: x̂ runs, no weight / z / buffer update; 2 = learn)
   the status of its last step (``STATUS_*``), two counters (steps taken, weight updates
-  made), and ‖Ŵ‖_F², ‖V̂‖_F² (kept up to date for the divergence bound);
+  made), ‖Ŵ‖_F², ‖V̂‖_F² (kept up to date for the divergence bound), c_e, the scales' rate,
+  and the noise gate's clean-data a_d, η1, η2, c_e (``HP_ADC`` …);
 * θ: Ŵ (n × n_h) and V̂ᵀ (p × n_h) (layout of :mod:`~simgap.identifiers.network`), x̂ (n),
   z (n), initialised flag (1);
 * results of the last step: ĝ_k (n), x̄_k (p), x̂_{k+1} (n), x̃_{k+1} (n), e_k (n).
@@ -70,6 +71,8 @@ from simgap.identifiers.scales import (
     rms,
     scale_outputs,
     update_scales,
+    update_whiteness,
+    whiteness,
 )
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
@@ -83,7 +86,11 @@ HP_ESCALE = 19
 #: Rate of the running input / output scales (1/s, :mod:`~simgap.identifiers.scales`);
 #: 0 = raw inputs and outputs (every thesis preset).
 HP_SRATE = 20
-HP_SIZE = 21
+#: Noise gate (:func:`~simgap.identifiers.scales.whiteness`): a_d, η1, η2 and c_e on clean
+#: data; the step uses x + ρ⁺ (x_clean − x). a_d_clean = 0: off (every preset but the
+#: ``auto`` integral law's).
+HP_ADC, HP_ETA1C, HP_ETA2C, HP_ESCALEC = 21, 22, 23, 24
+HP_SIZE = 25
 #: ``HP_MODE`` of baseline 2 learning on the observer's x̂ (``minibatch_input="estimate"``).
 MB_ESTIMATE = 3
 
@@ -252,6 +259,17 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     io = i * n
     dt = R[HP_DT]
     a_d = R[HP_AD]
+    eta1 = R[HP_ETA1]
+    eta2 = R[HP_ETA2]
+    ce = R[HP_ESCALE]
+    ons = scale_block(n, m, h)
+    adc = R[HP_ADC]
+    if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
+        wg = whiteness(R, ons, p)
+        a_d += wg * (adc - a_d)
+        eta1 += wg * (R[HP_ETA1C] - eta1)
+        eta2 += wg * (R[HP_ETA2C] - eta2)
+        ce += wg * (R[HP_ESCALEC] - ce)
     fresh = R[oini] == 0.0  # fresh observer: x̂_k = x_k, z_k = 0
     for r in range(n):
         xr = x[_ix(io + r)]
@@ -262,7 +280,6 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         T[_ix(txb + n + c)] = u[_ix(i * m + c)]
     # ĝ_k with the weights before the update (the pre-activations are kept for the update)
     rate = R[HP_SRATE]
-    ons = scale_block(n, m, h)
     if rate > 0.0:  # running scales: ĝ = s ⊙ Ŵ tanh(V̂ (x̄ ⊘ r))
         txn, ty = norm_scratch(n, m, h)
         normalise_inputs(R, ons, p, T, txb, T, txn)
@@ -282,25 +299,31 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
                                                    - a_d * T[_ix(txt + r)])
     if not _finite(T, txh1, n):
         return STATUS_STATE_DIVERGED
+    eps_rms = 0.0  # RMS of the residual sample ε_k (running scales only)
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
         inv = 1.0
         if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
             for r in range(n):
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
-            inv = delta_factor(R, ons, p, rms(T, ty + n, n))
+            eps_rms = rms(T, ty + n, n)
+            inv = delta_factor(R, ons, p, eps_rms)
             for r in range(n):
                 T[_ix(td + r)] *= inv
-        leak = dt * np.sqrt(dot(T, txt, T, txt, n))
-        k1 = dt * R[HP_ETA1]
-        k2 = dt * R[HP_ETA2]
-        ce = R[HP_ESCALE]
+        l1 = 0.0
+        l2 = 0.0
+        if R[HP_RHO1] != 0.0 or R[HP_RHO2] != 0.0:  # leakage Δt ρ_i ‖x̃‖ (none in "auto")
+            leak = dt * np.sqrt(dot(T, txt, T, txt, n))
+            l1 = leak * R[HP_RHO1]
+            l2 = leak * R[HP_RHO2]
+        k1 = dt * eta1
+        k2 = dt * eta2
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
             dd = bound_error2(mode, T, td, txt, n, inv / (a_d * R[HP_LAM]))
             k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
                                       dd, jacobian_norm2(R, ow, n, h, T, ts), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
-                              leak * R[HP_RHO1], leak * R[HP_RHO2], R[HP_MAXN], HP_NORM2,
+                              l1, l2, R[HP_MAXN], HP_NORM2,
                               tsc):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results
@@ -309,8 +332,10 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             R[_ix(oz + r)] = 0.0
     if act == LEARN and mode == INTEGRAL:
         z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
+    if act == LEARN and adc != 0.0:
+        update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, rate, dt)
     if act == LEARN and rate > 0.0:
-        update_scales(R, ow, n, h, p, ons, T, txb, T, ty + n, rate, dt, HP_NORM2)
+        update_scales(R, ow, n, h, p, ons, T, txb, eps_rms, rate, dt, HP_NORM2)
     for r in range(n):
         xh1 = T[_ix(txh1 + r)]
         R[_ix(oxh + r)] = xh1
@@ -556,7 +581,7 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
                 for r in range(n):
                     T[_ix(ty + r)] = ((x_next[_ix(io + r)] - x[_ix(io + r)]) / dt
                                       - f[_ix(io + r)])
-                update_scales(R, ow, n, h, p, ons, R, oxb, T, ty, rate, dt, HP_NORM2)
+                update_scales(R, ow, n, h, p, ons, R, oxb, rms(T, ty, n), rate, dt, HP_NORM2)
     return nfail, ndue
 
 

@@ -66,10 +66,12 @@ class Law:
 #: derived from it.
 LAWS: dict[str, Law] = {
     "instantaneous": Law(code=0, uses_observer=True, uses_buffer=False,
-                         hyper=("a_d", "rho1", "rho2"), column=0,
+                         hyper=("a_d", "rho1", "rho2", "a_d_clean", "eta1_clean",
+                                "eta2_clean"), column=0,
                          label="Baseline 1 (instantaneous)", short="B1", equation="3.8"),
     "integral": Law(code=1, uses_observer=True, uses_buffer=False,
-                    hyper=("a_d", "rho1", "rho2", "lam"), column=2,
+                    hyper=("a_d", "rho1", "rho2", "lam", "a_d_clean", "eta1_clean",
+                           "eta2_clean"), column=2,
                     label="Proposed (integral)", short="Proposed", equation="3.9, 4.6"),
     "minibatch": Law(code=2, uses_observer=False, uses_buffer=True,
                      hyper=("buffer_size", "batch_size", "update_period", "minibatch_input"),

@@ -29,7 +29,7 @@ def test_laws_table_derives_kinds_codes_and_table_order():
     assert [k for k, law in LAWS.items() if law.uses_buffer] == ["minibatch"]
     # the load check covers every header slot the constructor fills (thesis layout kept)
     assert set(FIXED_SLOTS) == set(HEADER_FIELDS.values()) | {
-        K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE}
+        K.HP_DT, K.HP_N, K.HP_M, K.HP_MODE, K.HP_ESCALE, K.HP_ESCALEC}
     assert set(range(K.HP_PERIOD + 1)) <= set(FIXED_SLOTS)
 
 
@@ -59,6 +59,20 @@ def test_auto_preset_is_discretely_stable_and_shares_one_bandwidth(dt):
         if kind == "integral":
             assert cfg.lam == pytest.approx(0.5 / dt)
             assert cfg.lam >= min(2 * (1 + kappa) * gamma, 0.5 / dt)
+            # noise gate: clean-data endpoint at the discrete limits (observer pole ≥ 0.8,
+            # z's damping λ ≥ 2(1 + κ)γ), the same γ; off where the base is at them already
+            kappa_c = min(max(kappa, cfg.lam / (2 * gamma) - 1), 24.0)
+            a_c = -min(0.2 / dt, 100.0)
+            if a_c < cfg.a_d or kappa_c > kappa:
+                assert cfg.a_d_clean == pytest.approx(min(a_c, cfg.a_d))
+                assert 0.8 <= abs(1.0 + cfg.a_d_clean * dt) < 1.0
+                ce_c = error_scale(kind, cfg, dt, clean=True)
+                assert dt * cfg.eta1_clean / ce_c == pytest.approx(gamma * dt)
+                assert cfg.eta2_clean == pytest.approx(kappa_c * cfg.eta1_clean)
+            else:
+                assert (cfg.a_d_clean, cfg.eta1_clean, cfg.eta2_clean) == (0.0, 0.0, 0.0)
+        else:
+            assert (cfg.a_d_clean, cfg.eta1_clean, cfg.eta2_clean) == (0.0, 0.0, 0.0)
     for kind in KINDS:  # thesis presets: plain gradients, c_e = 0
         assert error_scale(kind, preset("manipulator", kind), 0.002) == 0.0
 
@@ -153,8 +167,8 @@ def test_running_scales_preserve_the_function_and_give_raw_unit_weights(kind):
     ons = K.scale_block.py_func(n, m, h)
     m_out_before = ident._scale_stats()[1].copy()
     same_inputs = np.sqrt(ident._scale_stats()[0][0])  # v² = m: the input scales stay
-    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0,
-                  np.full(n, 3.0), 0, 50.0, 0.002, K.HP_NORM2)
+    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0, 3.0, 50.0, 0.002,
+                  K.HP_NORM2)
     assert not np.allclose(ident._scale_stats()[1], m_out_before)
     np.testing.assert_allclose(ident.predict(xb), before, rtol=1e-12, atol=1e-14)
     w = ident._state[0, K.HP_SIZE:K.HP_SIZE + n * h]
@@ -175,12 +189,61 @@ def test_format_2_files_load_and_continue_identically(kind, tmp_path):
         data = {k: z[k] for k in z.files}
     meta = json.loads(str(data.pop("meta")))
     meta["format"] = "simgap-identifier/2"
-    del meta["config"]["scale_rate"]
+    for name in ("scale_rate", "a_d_clean", "eta1_clean", "eta2_clean"):
+        del meta["config"][name]
     st = data["state"]
-    block = 2 + 4 + 2  # count, m_in (p = 6), m_out
-    data["state"] = np.hstack([st[:, :20], st[:, 21:st.shape[1] - block]])
+    block = 4 + 4 + 2  # count, m_in (p = 6), m_out, the two whiteness statistics
+    data["state"] = np.hstack([st[:, :20], st[:, K.HP_SIZE:st.shape[1] - block]])
     old = tmp_path / "old.npz"
     np.savez(old, meta=np.array(json.dumps(meta)), **data)
     b = load_identifier(old)
     assert b.config == cfg
     np.testing.assert_array_equal(_run(a, x, u, f, 150, 300), _run(b, x, u, f, 150, 300))
+
+
+def test_whiteness_is_the_smooth_share_of_the_observer_error():
+    """ρ⁺ ≈ S / (S + N): ≈ 1 for a smooth x̃, ≈ 0 for white noise, ≈ ½ for equal powers."""
+    from simgap.identifiers.scales import update_whiteness, whiteness
+
+    n, p, k = 3, 5, 20000
+    rng = np.random.default_rng(0)
+    t = np.arange(k + 1) * 0.002
+    smooth = np.sin(2 * np.pi * 0.5 * t[:, None] + np.arange(n))
+    noise = rng.normal(size=(k + 1, n)) * np.sqrt(0.5)  # the power of the sines
+    zero = np.zeros(n)
+    for sig, want in ((smooth, 1.0), (noise, 0.0), (smooth + noise, 0.5)):
+        R = np.zeros(p + 4)
+        assert whiteness.py_func(R, 0, p) == 0.0  # nothing measured yet: the noise-safe end
+        for j in range(k):
+            update_whiteness.py_func(R, 0, p, sig[j], 0, sig[j + 1], 0, zero, 0, n, 0.0,
+                                     0.002)
+            R[0] += 1.0  # the sample count, as update_scales advances it
+        assert whiteness.py_func(R, 0, p) == pytest.approx(want, abs=0.05)
+
+
+def test_noise_gate_config_is_checked():
+    cfg = preset("auto", "integral", dt=0.002)
+    with pytest.raises(IdentifierError, match="a_d_clean"):
+        cfg.replace(a_d_clean=cfg.a_d / 2)  # slower than a_d
+    with pytest.raises(IdentifierError, match="scale_rate"):
+        cfg.replace(scale_rate=0.0)
+
+
+def test_noise_gate_takes_the_clean_rates_on_smooth_data_only():
+    """The auto integral law at 500 Hz: the gate opens on smooth data, stays shut on noisy."""
+    t = np.arange(3001) * 0.002
+    x = np.sin(2 * np.pi * 0.5 * t[:, None] + np.arange(4))  # smooth: no noise in x
+    u = np.cos(2 * np.pi * 0.3 * t[:3000, None] + np.arange(2))
+    f = np.gradient(x, t, axis=0)[:3000] * 0.8  # the residual: 20 % of dx/dt
+    clean = make_identifier("integral", 4, 2, 0.002, config=preset("auto", "integral", dt=0.002))
+    noisy = make_identifier("integral", 4, 2, 0.002, config=preset("auto", "integral", dt=0.002))
+    xn = x + 0.05 * np.random.default_rng(1).normal(size=x.shape)
+    _run(clean, x, u, f)
+    _run(noisy, xn, u, f)
+    from simgap.identifiers.scales import whiteness
+
+    def gate(ident):
+        return whiteness(ident._state[0], K.scale_block.py_func(4, 2, ident.n_hidden), 6)
+
+    assert gate(clean) > 0.9
+    assert gate(noisy) < 0.1
