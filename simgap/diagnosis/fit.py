@@ -338,6 +338,8 @@ class Fitter:
         already filtered derivatives and are not filtered again.
         """
         e, sm = term.effect, self.prepared.smoother
+        if getattr(e, "on_input", False):   # a change of the held input: filtered as it is
+            sm = getattr(sm, "held", sm)
         if e.uses_derivatives:
             base = e(lin, nl, self.sig0, term.index, self.ctx)
             out = sm(base) + (e(lin, nl, self.sig, term.index, self.ctx) - base)
