@@ -532,13 +532,12 @@ def _convolve_rows(x: np.ndarray, w: np.ndarray) -> np.ndarray:
     All-zero columns (a channel a regressor does not act on) are not convolved, and long
     arrays are convolved in blocks of :data:`CONV_BLOCK_ROWS` rows, each with its halo.
     """
-    if x.ndim == 2 and x.shape[1] > 1:
-        live = np.flatnonzero([x[:, j].any() for j in range(x.shape[1])])  # stops early
-        if live.size < x.shape[1]:
-            out = np.zeros(x.shape)
-            if live.size:
-                out[:, live] = _convolve_rows(x[:, live], w)
-            return out
+    live = _live_columns(x)
+    if live is not None:
+        out = np.zeros(x.shape)
+        if live.size:
+            out[:, live] = _convolve_rows(x[:, live], w)
+        return out
     n, h = x.shape[0], w.size // 2
     if n <= 2 * CONV_BLOCK_ROWS:
         return convolve1d(x, w, axis=0, mode="nearest")
@@ -550,11 +549,25 @@ def _convolve_rows(x: np.ndarray, w: np.ndarray) -> np.ndarray:
     return out
 
 
+def _live_columns(x: np.ndarray) -> np.ndarray | None:
+    """Indices of the columns of a 2-D ``x`` that are not all zero; None if all are."""
+    if x.ndim != 2 or x.shape[1] < 2:
+        return None
+    live = np.flatnonzero([x[:, j].any() for j in range(x.shape[1])])   # stops early
+    return None if live.size == x.shape[1] else live
+
+
 def _interval_mean(seg: np.ndarray, deriv: int, dt: float) -> np.ndarray:
     """Mean over [t_{k−1}, t_{k+1}] of x (trapezoid, deriv 0) or of ẋ (exact, deriv 1).
 
-    The end rows use the one interval they have.
+    The end rows use the one interval they have; all-zero columns are left zero.
     """
+    live = _live_columns(seg)
+    if live is not None:
+        out = np.zeros(seg.shape)
+        if live.size:
+            out[:, live] = _interval_mean(seg[:, live], deriv, dt)
+        return out
     out = np.empty(seg.shape)
     if seg.shape[0] < 2:
         out[...] = 0.0 if deriv else seg
