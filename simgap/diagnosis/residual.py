@@ -57,6 +57,17 @@ K*[ΔM]·(K'*q̇) rather than K*[ΔM q̈], a second-order term. When the mass ma
 along the recording (a prismatic axis such as EMPS), M·q̈ is linear in q and the
 Savitzky–Golay signals are used as before (the kernel there changed nothing physical but
 tipped the EMPS selection between an offset and an aliased spring, a gate of the selection).
+**Interval form (exact for a held input).** A logged command is held over each sample
+interval (zero-order hold), so q̇ has a kink at every sample and the point form above
+(K' on the sampled momentum, the input as the mean of the two samples around an instant)
+is off by (ω·Δt)²/6 of the input at frequency ω: 2.6e-4 N·m on a noise-free arm log, named
+as extra inertia at both joints at low noise and as spurious delays and a Stribeck term on a
+3600 s log. The arm's equation is therefore integrated over the two sample intervals around
+each sample first (``KernelFilter(interval=True)``): the momentum's exact mean rate
+(p_{k+1} − p_{k−1})/(2Δt), the held input's exact mean (u_{k−1} + u_k)/2, and the state
+terms' trapezoid mean (¼, ½, ¼) (exact where they are linear on each interval, their kinks
+at the samples included), then K. Every effect regressor goes through the same mean and
+K; an input delay, a change of the held input, through K alone.
 The bicycle's equation has only first derivatives and stays on the Savitzky–Golay filter.
 For now only the built-in two-link arm uses the momentum form: on MuJoCo models it named
 the armature as an inertia mismatch (the model's M(q) and its inverse dynamics disagree
