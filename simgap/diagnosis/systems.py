@@ -434,6 +434,10 @@ class MechanicalSystem:
                 effect = effect.for_data(effect, sig, j, ctx)
                 if effect is None:
                     continue
+            if effect.for_noise is not None:     # every model: what the noise allows
+                effect = effect.for_noise(effect, j, ctx)
+                if effect is None:
+                    continue
             out.append((effect, j, channel))
         return out
 

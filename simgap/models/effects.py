@@ -106,6 +106,10 @@ class FitSpec:
             (Stribeck's vs), or ``None`` when the recording holds no information about it
             (gravity_mismatch of a model without gravity torques). ``sig``: the prepared
             signals; ``ctx``: the form's effect context. ``None``: used as declared.
+        for_noise: ``for_noise(effect, index, ctx) -> effect | None``: the candidate as the
+            data's noise allows it, for every form (the built-in arm included): e.g.
+            Stribeck's vs above the blur the velocity's noise gives a Coulomb step.
+            ``ctx``: the form's effect context. ``None``: used as declared.
         from_report: the inverse, ``from_report(params, context) -> (lin, nl)``: the fit
             coordinates of reported parameters (how a saved augmented model is simulated
             again); ``context`` as for ``to_report``. ``None`` with ``to_report`` unset:
@@ -135,6 +139,7 @@ class FitSpec:
         = field(default=None, repr=False)
     for_data: Callable[[Any, Mapping[str, np.ndarray], int | None, Any], Any] | None \
         = field(default=None, repr=False)
+    for_noise: Callable[[Any, int | None, Any], Any] | None = field(default=None, repr=False)
 
     def coordinates(self, params: Mapping[str, float], context: Mapping[str, float] | None = None
                     ) -> tuple[np.ndarray, np.ndarray]:
