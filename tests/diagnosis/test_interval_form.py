@@ -93,3 +93,23 @@ def test_long_log_names_what_was_injected(delay):
     rep = diagnose(_blind(generate_manipulator(inj, duration=3600.0, seed=0)),
                    "manipulator2dof")
     assert _named(rep) == want, [e["summary"] for e in rep.effects]
+
+
+@pytest.mark.parametrize("method", ["bvls", "trf"])
+def test_reduced_bounded_least_squares_has_the_same_minimiser(method):
+    """A tall bounded problem solved on its blockwise QR factor: the same θ as on the
+    whole design (an active bound included), to rounding."""
+    from scipy.optimize import lsq_linear
+
+    from simgap.diagnosis.fit import REDUCE_ROWS, bounded_lstsq
+
+    rng = np.random.default_rng(0)
+    m = 3 * REDUCE_ROWS + 17
+    x = rng.normal(size=(m, 4))
+    x[:, 1] = x[:, 0] + 0.01 * x[:, 1]                       # nearly collinear pair
+    b = x @ np.array([1.0, -0.5, 0.2, -0.3]) + rng.normal(size=m)
+    lo, hi = np.array([0.0, 0.0, -np.inf, -np.inf]), np.full(4, np.inf)
+    got = bounded_lstsq(x, b, lo, hi, method)
+    ref = lsq_linear(x, b, bounds=(lo, hi), method=method).x
+    assert got[1] == pytest.approx(0.0, abs=1e-9)              # on its bound
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9)
