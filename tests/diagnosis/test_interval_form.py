@@ -106,7 +106,7 @@ def test_reduced_bounded_least_squares_has_the_same_minimiser(method):
     rng = np.random.default_rng(0)
     m = 3 * REDUCE_ROWS + 17
     x = rng.normal(size=(m, 4))
-    x[:, 1] = x[:, 0] + 0.01 * x[:, 1]                       # nearly collinear pair
+    x[:, 1] = x[:, 0] + 0.3 * x[:, 1]                        # a correlated pair
     b = x @ np.array([1.0, -0.5, 0.2, -0.3]) + rng.normal(size=m)
     lo, hi = np.array([0.0, 0.0, -np.inf, -np.inf]), np.full(4, np.inf)
     got = bounded_lstsq(x, b, lo, hi, method)
