@@ -526,8 +526,9 @@ class MechanicalSystem:
         torque's rate of change (measured: 2x the noise floor on clean 100 Hz arm logs, and
         named as quadratic drag once); its true lag is half a *controller* period (1 ms).
         The recording does not say which; the equation does. The residual is linear in the
-        input, so the input at t_k − a·Δt (linear interpolation, 0 ≤ a ≤ ½) gives
-        r(a) = r(0) + 2a·(r(½) − r(0)), and the lag a is the least-squares one of the
+        input, so the input at t_k − a·Δt (linear interpolation, 0 ≤ a ≤ ½; in the interval
+        form, :func:`_held` with ``interval``, its interval mean with weights linear in a)
+        gives r(a) = r(0) + 2a·(r(½) − r(0)), and the lag a is the least-squares one of the
         equation (each channel weighted by its residual's mean square, valid rows) after
         both r(0) and r(½) − r(0) are cleared of any dependence on the state
         (:func:`_off_state`): an unmodelled effect is a function of the state and must not
