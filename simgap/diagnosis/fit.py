@@ -238,6 +238,38 @@ class Selection:
     identifiability: dict[str, Any] = field(default_factory=dict)
 
 
+#: Design rows above which a bounded linear least-squares problem is first reduced to its
+#: triangular factor (:func:`bounded_lstsq`); smaller problems are solved as they are.
+REDUCE_ROWS = 1 << 13
+#: Rows per block of that reduction.
+REDUCE_BLOCK_ROWS = 1 << 15
+
+
+def bounded_lstsq(x: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                  method: str = "trf") -> np.ndarray:
+    """Argmin ||x·θ − b|| subject to lower ≤ θ ≤ upper (``scipy.optimize.lsq_linear``).
+
+    A tall problem (more than :data:`REDUCE_ROWS` rows) is solved on its triangular factor
+    instead: the QR factorisation of [x | b], accumulated block by block (TSQR, Householder
+    on :data:`REDUCE_BLOCK_ROWS` rows at a time, no copy of the whole design), gives R and
+    c = Qᵀb with ||x·θ − b||² = ||R·θ − c||² + const, the same minimiser of a (k, k)
+    problem. The solver's iterations then cost O(k²) instead of more than O(rows·k):
+    measured (scipy 1.x, bvls, two columns), 0.06 ms on 1 598 rows (the thinned design of a
+    60 s arm log) but 2.6 ms on 14 302 rows (a 600 s log), 9 µs per sample of the 600 s
+    diagnosis against 0.5 µs at 60 s. Problems up to :data:`REDUCE_ROWS` rows (a 60 s log
+    at 500 Hz) are solved as before, bit for bit.
+    """
+    m, k = x.shape
+    if m <= REDUCE_ROWS or m < 4 * (k + 1):
+        return lsq_linear(x, b, bounds=(lower, upper), method=method).x
+    r = np.zeros((0, k + 1))
+    for a in range(0, m, REDUCE_BLOCK_ROWS):
+        block = np.column_stack([x[a:a + REDUCE_BLOCK_ROWS], b[a:a + REDUCE_BLOCK_ROWS]])
+        r = np.linalg.qr(np.vstack([r, block]), mode="r")
+    r = r[:k + 1]
+    return lsq_linear(r[:k, :k], r[:k, k], bounds=(lower, upper), method=method).x
+
+
 class Fitter:
     """Fits terms to a residual (see the module docstring).
 
@@ -340,6 +372,8 @@ class Fitter:
         already filtered derivatives and are not filtered again.
         """
         e, sm = term.effect, self.prepared.smoother
+        if getattr(e, "on_input", False):   # a change of the held input: filtered as it is
+            sm = getattr(sm, "held", sm)
         if e.uses_derivatives:
             base = e(lin, nl, self.sig0, term.index, self.ctx)
             out = sm(base) + (e(lin, nl, self.sig, term.index, self.ctx) - base)
@@ -436,9 +470,9 @@ class Fitter:
         if x.shape[1] == 0:
             return np.zeros(0), y - off, x
         lower, upper = self._lin_bounds(terms)
-        sol = lsq_linear(x, y - off, bounds=(lower, upper),
-                         method="bvls" if x.shape[1] <= 12 else "trf")
-        return sol.x, y - off - x @ sol.x, x
+        sol = bounded_lstsq(x, y - off, lower, upper,
+                            method="bvls" if x.shape[1] <= 12 else "trf")
+        return sol, y - off - x @ sol, x
 
     def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None,
             rows: np.ndarray | None = None, full: bool = True) -> FitResult:
@@ -597,8 +631,7 @@ class Fitter:
             parts = np.split(g, np.cumsum(sizes)[:-1])
             x, off = self._design(terms, starts + parts, self.train)
             if x.shape[1]:
-                sol = lsq_linear(x, y - off, bounds=(lower, upper))
-                r = y - off - x @ sol.x
+                r = y - off - x @ bounded_lstsq(x, y - off, lower, upper)
             else:
                 r = y - off
             sse = float(r @ r)

@@ -163,60 +163,92 @@ def _quantised(m: Any) -> bool:
     return bool(m.quantum) and any("quantised" in n for n in m.notes)
 
 
-#: Quantile bins per state variable of the nuisance model the input's lag is fitted beside.
-LAG_NUISANCE_BINS = 8
+#: Quantile intervals per state variable of the nuisance model the input's lag is fitted
+#: beside (a continuous piecewise-linear function of each variable).
+LAG_NUISANCE_BINS = 16
 
 
-def _off_state(y: np.ndarray, state: np.ndarray, linear: np.ndarray | None = None
-               ) -> np.ndarray:
-    """``y`` (n, C) minus its least-squares fit on the state's bins (Frisch–Waugh).
+def _hat_basis(x: np.ndarray, jump: bool) -> list[tuple[np.ndarray, np.ndarray | None, int]]:
+    """A variable's piecewise-linear (hat) basis: [(interval index, position in it, size)].
+
+    Knots at :data:`LAG_NUISANCE_BINS` + 1 quantiles of ``x`` (and at 0 with ``jump``); a
+    row in interval i at relative position λ has the value 1 − λ on hat i and λ on hat
+    i + 1. ``jump`` adds the indicator of x > 0 (position None): a step at zero.
+    """
+    knots = np.unique(np.quantile(x, np.linspace(0.0, 1.0, LAG_NUISANCE_BINS + 1)))
+    if jump:
+        knots = np.unique(np.concatenate([knots, [0.0]]))
+    if knots.size < 2:
+        return [(np.zeros(x.size, dtype=np.int32), None, 1)]
+    i = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, knots.size - 2)
+    lam = (x - knots[i]) / np.diff(knots)[i]
+    out = [(i.astype(np.int32), lam, int(knots.size))]
+    if jump:
+        out.append(((x > 0).astype(np.int32), None, 2))
+    return out
+
+
+def _off_state(y: np.ndarray, state: np.ndarray, jumps: Sequence[bool] | None = None,
+               linear: np.ndarray | None = None) -> np.ndarray:
+    """``y`` (n, C) minus its least-squares fit on functions of the state (Frisch–Waugh).
 
     ``linear`` (n, C, k), optional: per channel, k more regressors fitted jointly with the
-    bins (each channel its own coefficients): both ``y`` and they are cleared of the bins,
+    state functions (each channel its own coefficients): both ``y`` and they are cleared of
+    those,
     then ``y`` of them (Frisch–Waugh, the same least squares as one joint design).
 
     The nuisance model is additive in the state variables (each column of ``state``, e.g.
-    q1, q2, q̇1, q̇2) with :data:`LAG_NUISANCE_BINS` quantile-bin indicators each: any
-    friction, drag, spring, offset or gravity error, whatever its shape, is a function of
-    one of them. What is left of ``y`` is what the state cannot explain.
+    q1, q2, q̇1, q̇2): a continuous piecewise-linear function of each (:func:`_hat_basis`),
+    with a step at zero where ``jumps`` says (the velocities: Coulomb friction changes sign
+    there). Any friction, drag, spring, offset or gravity error, whatever its shape, is
+    such a function. Quantile-bin indicators (piecewise constant) were used before: their
+    staircase left a sawtooth of a viscous friction and the smoothed step of a Coulomb
+    friction in ``y``, correlated with the input's rate, and tilted the lag (measured: a
+    600 s arm log with Coulomb + viscous friction, lag 0.1 sample rejected ZOH at
+    p = 10⁻⁸ in both halves; with this basis the lag is ≈ 0.55, ZOH kept).
 
-    The indicator design is never formed (it was (n, 1 + V·(B−1)) floats and its least-squares
-    copies, ≈ 0.8 KB per sample on the arm; issue 17's memory bar): its normal equations
-    are bin co-occurrence counts and per-bin sums (``np.bincount``), solved by least squares
-    on the small (P, P) system, and the fit is subtracted by indexing.
+    The design is never formed (issue 17's memory bar): its normal equations are weighted
+    co-occurrence sums of the hats (``np.bincount``), solved by least squares on the small
+    (P, P) system (minimum norm: the hats of each variable sum to one), and the fit is
+    subtracted by indexing.
     """
-    n = len(y)
-    idx, offsets, p = [], [], 1
-    for x in state.T:
-        edges = np.unique(np.quantile(x, np.linspace(0.0, 1.0, LAG_NUISANCE_BINS + 1)))
-        nb = max(edges.size - 1, 1)
-        k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, nb - 1)
-        idx.append(k)
-        offsets.append(p - 1)          # bin b ≥ 1 of this variable is column offset + b
-        p += nb - 1
+    jumps = [False] * state.shape[1] if jumps is None else list(jumps)
+    parts = [b for x, j in zip(state.T, jumps, strict=True) for b in _hat_basis(x, j)]
+    offsets = np.concatenate([[0], np.cumsum([m for _, _, m in parts])])
+    p = int(offsets[-1])
+
+    def terms(k: int):
+        """(index, weight or None) pairs of part k's nonzero basis values per row."""
+        i, lam, _ = parts[k]
+        return [(i, None)] if lam is None else [(i, 1.0 - lam), (i + 1, lam)]
+
     gram = np.zeros((p, p))
     rhs = np.zeros((p, y.shape[1]))
-    gram[0, 0] = n
-    rhs[0] = y.sum(axis=0)
-    for a, (ka, oa) in enumerate(zip(idx, offsets, strict=True)):
-        na = int(ka.max()) + 1 if ka.size else 1
-        cnt = np.bincount(ka, minlength=na)[1:]
-        gram[0, oa + 1:oa + na] = gram[oa + 1:oa + na, 0] = cnt
-        for c in range(y.shape[1]):
-            rhs[oa + 1:oa + na, c] = np.bincount(ka, weights=y[:, c], minlength=na)[1:]
-        for kb, ob in zip(idx[a:], offsets[a:], strict=True):
-            nbb = int(kb.max()) + 1 if kb.size else 1
-            joint = np.bincount(ka * nbb + kb, minlength=na * nbb).reshape(na, nbb)[1:, 1:]
-            gram[oa + 1:oa + na, ob + 1:ob + nbb] = joint
-            gram[ob + 1:ob + nbb, oa + 1:oa + na] = joint.T
+    for a in range(len(parts)):
+        oa, ma = offsets[a], parts[a][2]
+        for ia, wa in terms(a):
+            for c in range(y.shape[1]):
+                rhs[oa:oa + ma, c] += np.bincount(
+                    ia, weights=y[:, c] if wa is None else wa * y[:, c], minlength=ma)
+        for b in range(a, len(parts)):
+            ob, mb = offsets[b], parts[b][2]
+            block = np.zeros((ma, mb))
+            for ia, wa in terms(a):
+                for ib, wb in terms(b):
+                    w = wa if wb is None else (wb if wa is None else wa * wb)
+                    block += np.bincount(ia.astype(np.int64) * mb + ib, weights=w,
+                                         minlength=ma * mb).reshape(ma, mb)
+            gram[oa:oa + ma, ob:ob + mb] = block
+            gram[ob:ob + mb, oa:oa + ma] = block.T
     coef, *_ = np.linalg.lstsq(gram, rhs, rcond=None)
-    out = y - coef[0]
-    for k, o in zip(idx, offsets, strict=True):
-        table = np.vstack([np.zeros((1, y.shape[1])), coef[o + 1:o + int(k.max()) + 1]])
-        out -= table[k]
+    out = y.copy()
+    for k in range(len(parts)):
+        table = coef[offsets[k]:offsets[k + 1]]
+        for i, w in terms(k):
+            out -= table[i] if w is None else w[:, None] * table[i]
     if linear is not None:
         for c in range(y.shape[1]):
-            x = _off_state(linear[:, c, :], state)
+            x = _off_state(linear[:, c, :], state, jumps)
             beta, *_ = np.linalg.lstsq(x, out[:, c], rcond=None)
             out[:, c] -= x @ beta
     return out
@@ -248,21 +280,33 @@ def _lag_of(hold: str) -> float:
     return 0.0 if hold == "sample" else 0.5
 
 
-def _held(u: np.ndarray, hold: str | float) -> np.ndarray:
+def _held(u: np.ndarray, hold: str | float, interval: bool = False) -> np.ndarray:
     """The input at each sample instant t_k: the logged one at t_k − lag·Δt.
 
     ``hold`` is the lag in log samples (0 ≤ lag ≤ 1, linear interpolation) or an
     ``input_hold`` name (``"sample"``: 0, as logged; otherwise ½: a command held until the
     next sample, the mean of the values before and after the instant).
+
+    ``interval``: the input's mean over the two sample intervals [t_{k−1}, t_{k+1}] instead
+    (the interval form of the equation, :class:`~.residual.KernelFilter`): weights
+    (¼ + a/2, ½, ¼ − a/2) on (u_{k−1}, u_k, u_{k+1}) for a lag a; a = ½ is a command held
+    over each interval (ZOH, (u_{k−1} + u_k)/2, exact, the same values as without
+    ``interval``), a = 0 the trapezoid mean of an input that varies between point samples.
+    The weights are linear in a, as the lag's test needs (:meth:`MechanicalSystem._choose_hold`).
     """
     lag = _lag_of(hold) if isinstance(hold, str) else float(hold)
-    if lag == 0.0:
+    if lag == 0.0 and not interval:
         return u
     out = u.copy()
     if lag == 0.5:   # the ZOH default, written as before (bit-identical)
         out[1:] = 0.5 * (u[1:] + u[:-1])
-    else:
+    elif not interval:
         out[1:] = u[1:] - lag * (u[1:] - u[:-1])
+    else:
+        out[1:-1] = (0.25 + 0.5 * lag) * u[:-2]
+        out[1:-1] += 0.5 * u[1:-1]
+        out[1:-1] += (0.25 - 0.5 * lag) * u[2:]
+        out[-1] = u[-1] - lag * (u[-1] - u[-2])
     return out
 
 
@@ -441,8 +485,13 @@ class MechanicalSystem:
         fit sees only by its far tail, where its amplitude is unbounded: measured on a
         2π/4096 rad encoder (velocity noise 0.015 rad/s, mask 0.093 rad/s), the Stribeck
         fit went to vs = 0.007 rad/s, Fs = 620 N·m (true 0.21 rad/s, 0.30 N·m), a spike on
-        a few rows that lost on held-out data. Its lower bound is raised to that speed
-        (start grid clipped to it); an effect whose whole range lies below it is not tried.
+        a few rows that lost on held-out data. The same width is where the fitted Coulomb
+        term, a function of the *measured* velocity, blurs the true friction step: a
+        narrower bump only takes up that blur (measured: a 600 s arm log with Coulomb
+        friction, vs = 5.1e-3 rad/s = 1.8 widths, 0.4 % of the validation residual at
+        p = 10⁻⁵; named on the 3600 s log). Its lower bound is raised to that speed (start
+        grid clipped to it; a fit that ends on it is at its plausibility limit); an effect
+        whose whole range lies below it is not tried.
         """
         speed = f"{self.position_units[j]}/s"
         if not any(u == speed for u in effect.nl_units):
@@ -478,7 +527,8 @@ class MechanicalSystem:
         dq = sm(qr, 1) if dqr is None else sm(dqr)
         del qr
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
-        held = _held(np.stack([raw[k] for k in c.u], axis=1), plan.hold) * scale
+        held = _held(np.stack([raw[k] for k in c.u], axis=1), plan.hold,
+                     interval=plan.kernel is not None) * scale
         if residual_only and plan.kernel is not None:
             return {"q": q, "dq": dq, "u_held": held}
         if plan.kernel is not None:
@@ -521,11 +571,13 @@ class MechanicalSystem:
             return sig["u"] - self.inverse_dynamics(q, dq, sig["ddq"])
         # the same operations as K*[u − bias + Ṁq̇] − K'*[M q̇], ordered so that each
         # (N, n) temporary is freed as soon as it is used (the peak memory of prepare)
+        # (in the interval form the held input is already its interval mean: kernel.held)
         d_momentum = kernel(self._mass_times(q, dq), 1)
-        rest = sig["u_held"] - self.inverse_dynamics(q, dq, np.zeros_like(q))
-        rest += self._mass_rate_dq(q, dq)
+        rest = self._mass_rate_dq(q, dq)
+        rest -= self.inverse_dynamics(q, dq, np.zeros_like(q))
         out = kernel(rest)
         del rest
+        out += kernel.held(sig["u_held"])
         out -= d_momentum
         return out
 
@@ -545,8 +597,9 @@ class MechanicalSystem:
         torque's rate of change (measured: 2x the noise floor on clean 100 Hz arm logs, and
         named as quadratic drag once); its true lag is half a *controller* period (1 ms).
         The recording does not say which; the equation does. The residual is linear in the
-        input, so the input at t_k − a·Δt (linear interpolation, 0 ≤ a ≤ ½) gives
-        r(a) = r(0) + 2a·(r(½) − r(0)), and the lag a is the least-squares one of the
+        input, so the input at t_k − a·Δt (linear interpolation, 0 ≤ a ≤ ½; in the interval
+        form, :func:`_held` with ``interval``, its interval mean with weights linear in a)
+        gives r(a) = r(0) + 2a·(r(½) − r(0)), and the lag a is the least-squares one of the
         equation (each channel weighted by its residual's mean square, valid rows) after
         both r(0) and r(½) − r(0) are cleared of any dependence on the state
         (:func:`_off_state`): an unmodelled effect is a function of the state and must not
@@ -572,10 +625,11 @@ class MechanicalSystem:
         sig = self._signals(raw, plan)                         # q, dq: the same values
         state = np.concatenate([sig["q"], sig["dq"]], axis=1)[valid]
         mass = self._mass_nuisance(sig, plan)[valid]
+        jumps = [False] * sig["q"].shape[1] + [True] * sig["dq"].shape[1]   # at q̇ = 0
         del sig
         held -= sampled                                        # r(½) − r(0), in place
-        d = _off_state(held[valid], state, mass)
-        r0 = _off_state(sampled[valid], state, mass)
+        d = _off_state(held[valid], state, jumps, mass)
+        r0 = _off_state(sampled[valid], state, jumps, mass)
         del held, sampled, state, mass
         lag, g = _lag_test(r0, d)
         if g is None:
@@ -653,7 +707,8 @@ class MechanicalSystem:
         k_w = choose_window([raw[k] for k in src], dt, deriv=2 if from_q else 1,
                             noise=[noise[k] for k in src], kind="kernel", pre=pre,
                             length=shortest, max_seconds=max_seconds)
-        plan = _Plan(inner=Smoother(inner_w, dt, bounds), kernel=KernelFilter(k_w, dt, bounds),
+        plan = _Plan(inner=Smoother(inner_w, dt, bounds),
+                     kernel=KernelFilter(k_w, dt, bounds, interval=True),
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
 
@@ -742,7 +797,8 @@ class MechanicalSystem:
                         warnings=tuple(dict.fromkeys(warn)),
                         effective_samples=effective_counts(res, valid, grid.segment),
                         valid=valid, plan=plan, inputs=u_hold,
-                        held_input=_held(u_hold, plan.hold),  # what an input delay shifts
+                        # what an input delay shifts
+                        held_input=_held(u_hold, plan.hold, interval=kernel is not None),
                         coulomb_sigma=sigma, fit_mask=self._fit_mask(sig, sigma, valid),
                         state_columns=tuple((k, j) for k in ("q", "dq")
                                             for j in range(sig["q"].shape[1])),
