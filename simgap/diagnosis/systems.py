@@ -624,7 +624,7 @@ class MechanicalSystem:
         valid = (plan.kernel or plan.inner).valid(len(held))
         sig = self._signals(raw, plan)                         # q, dq: the same values
         state = np.concatenate([sig["q"], sig["dq"]], axis=1)[valid]
-        mass = self._mass_nuisance(sig, plan)[valid]
+        mass = self._mass_nuisance(sig, plan)[valid] if plan.kernel is not None else None
         jumps = [False] * sig["q"].shape[1] + [True] * sig["dq"].shape[1]   # at q̇ = 0
         del sig
         held -= sampled                                        # r(½) − r(0), in place
@@ -663,6 +663,12 @@ class MechanicalSystem:
         then named as a viscous friction or a quadratic drag at joint 1. Regressors: each
         channel's own acceleration (an inertia error) and, on the arm, the payload's torque
         per kg (:meth:`payload_regressor`), through the equation's filter.
+
+        Used on the kernel route only (M(q) not constant: the arm), where it was measured.
+        On the Savitzky–Golay route (MuJoCo models) the acceleration regressor, which carries
+        the same derivative noise as the residual and the input itself, tilted the lag of a
+        clean MuJoCo log to 0.27–0.32 sample (ZOH rejected in both halves, p < 0.01) and a
+        spurious 0.4 ms input delay was named at both joints.
         """
         ddq = sig["ddq"]
         cols = [ddq]
