@@ -98,7 +98,7 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
-from scipy.stats import chi2, norm
+from scipy.stats import norm
 
 from simgap.diagnosis import identifiability, validation
 from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect, report_params
@@ -123,15 +123,6 @@ FLIP_SIDE_SHARE = 0.1
 #: this level (the selection's own :data:`ALPHA`), with the standard error from the joint
 #: information of the whole block (:func:`.identifiability.determination`).
 SYMMETRY_ALPHA = ALPHA
-#: A named effect must replicate over the operating regions: refitted (the others held) on
-#: each region of its fit rows (sign of each direction variable × amplitude level, the
-#: strata of :func:`.validation.block_regions`), its parameters must agree across regions;
-#: a heterogeneity (Cochran Q) test at this level demotes it (:meth:`Fitter._replicates`).
-REPLICATE_ALPHA = 1e-3
-#: Fewest (thinned) fit rows in a region of the replication test (fewer: left out).
-REPLICATE_MIN_ROWS = 20
-#: Amplitude levels (quantiles) of the replication test's regions.
-REPLICATE_LEVELS = 5
 #: Effects fitted together as one hypothesis as well as alone (same channel).
 FAMILIES = (("coulomb_friction", "viscous_friction"),)
 #: Bases of nonlinear terms kept (least recently used dropped), each (usable rows, channels,
@@ -860,7 +851,6 @@ class Fitter:
             remaining = [t for t in remaining if t.key not in done]
         current = self._prune(current, sel, tried)
         current = self._demote_flips(current, sel, tried)
-        current = self._demote_unreplicated(current, sel, tried)
         current = self._demote_direction_offsets(current, sel, tried)
         current = self._identify(current, sel, tried)
         current = self._separate_aliases(current, sel, tried)
@@ -1305,135 +1295,6 @@ class Fitter:
             current = self._drop(current, i)
         return current
 
-    def _row_regions(self, rows: np.ndarray) -> np.ndarray | None:
-        """Operating region of each of ``rows``: direction pattern × amplitude level.
-
-        The per-row form of :func:`.validation.block_regions`: the sign of each direction
-        variable (:meth:`_region_variables`) and the quantile level (:data:`REPLICATE_LEVELS`)
-        of the RMS of the variables, each divided by its RMS
-        over ``rows``. None when the form declares no direction variables.
-        """
-        x = self._region_variables(self.sys, self.prepared)
-        if x is None:
-            return None
-        x = x[rows]
-        scale = np.sqrt(np.mean(x**2, axis=0))
-        x = x / np.where(scale > 0, scale, 1.0)
-        code = np.zeros(len(rows), dtype=np.int64)
-        for j in range(x.shape[1]):
-            code = 2 * code + (x[:, j] > 0)
-        amp = np.sqrt(np.sum(x**2, axis=1))
-        levels = REPLICATE_LEVELS
-        edges = np.quantile(amp, np.arange(1, levels) / levels)
-        return code * levels + np.searchsorted(edges, amp, side="right")
-
-    def _replicates(self, current: FitResult, i: int, regions: np.ndarray
-                    ) -> tuple[float, float, list[tuple[int, np.ndarray, np.ndarray]]]:
-        """Heterogeneity of term ``i``'s parameters over the operating regions of the fit rows.
-
-        The term is refitted on each region (the other terms held at their fitted values)
-        by one Gauss-Newton step from its fitted parameters: a linear regression of the
-        fit's whitened residual there on the derivatives of the term's contribution
-        (exact for linear parameters, forward differences for nonlinear ones). Each
-        region's standard errors come from its own residual variance (the error the fit
-        leaves there, sensor noise and model-structure error alike) inflated by the fit's
-        autocorrelation time. The regions' corrections are compared by Cochran's Q
-        (inverse-covariance weighted spread about their weighted mean), χ² with
-        p·(regions − 1) degrees of freedom.
-
-        Returns:
-            (Q, p-value, [(region, correction, standard error)]); p = 1 with fewer than
-            two informative regions.
-        """
-        t = current.terms[i]
-        lin, nl = np.asarray(current.lin[i], float), np.asarray(current.nl[i], float)
-        rows = self.fit_rows
-        pos = self.at(rows)
-        sc = self.w / current.scale
-        cols, off, _ = self.basis(t, nl)
-        base = cols[pos] @ lin + off[pos] if len(lin) else off[pos]
-        derivs = [cols[pos, :, k] * sc for k in range(len(lin))]
-        for k in range(len(nl)):
-            h = 1e-4 * max(abs(nl[k]), 1e-2)
-            step = nl.copy()
-            step[k] += h
-            c2, o2, _ = self.basis(t, step)
-            moved = c2[pos] @ lin + o2[pos] if len(lin) else o2[pos]
-            derivs.append((moved - base) / h * sc)
-        if not derivs:
-            return 0.0, 1.0, []
-        jac = np.stack(derivs, axis=-1)                       # (rows, C, p)
-        e = (self.r[rows] - self.on(current, current.total(self.n, self.c), rows)) * sc
-        p = jac.shape[2]
-        out = []
-        for reg in np.unique(regions):
-            m = regions == reg
-            if m.sum() < REPLICATE_MIN_ROWS:
-                continue
-            j = jac[m].reshape(-1, p)
-            y = e[m].ravel()
-            info = j.T @ j
-            if not np.all(np.isfinite(info)) or np.linalg.matrix_rank(info) < p:
-                continue
-            est = np.linalg.solve(info, j.T @ y)
-            s2 = float(np.mean((y - j @ est) ** 2)) * float(current.tau)
-            out.append((int(reg), est, np.linalg.inv(info) * s2))
-        if len(out) < 2:
-            return 0.0, 1.0, [(r, est, np.sqrt(np.diag(c))) for r, est, c in out]
-        weights = [np.linalg.inv(c) for _, _, c in out]
-        pooled = np.linalg.solve(sum(weights), sum(w @ est for w, (_, est, _) in
-                                                   zip(weights, out, strict=True)))
-        q = float(sum((est - pooled) @ w @ (est - pooled)
-                      for w, (_, est, _) in zip(weights, out, strict=True)))
-        pv = float(chi2.sf(q, p * (len(out) - 1)))
-        return q, pv, [(r, est, np.sqrt(np.diag(c))) for r, est, c in out]
-
-    def _demote_unreplicated(self, current: FitResult, sel: Selection, tried: dict
-                             ) -> FitResult:
-        """Drop named effects whose parameters do not replicate over the operating regions.
-
-        A vocabulary law that is the right one holds with the same parameters at every
-        amplitude and in both directions; a term that is named because, with its
-        parameters bent to the data, it mimics an effect out of the vocabulary (a yaw
-        offset whose sign follows the turn direction fitted by a cornering-stiffness ratio
-        and a tire saturation together) needs different parameters at different
-        amplitudes. Each term is tested by :meth:`_replicates` at :data:`REPLICATE_ALPHA`
-        divided by the number of named terms; the worst failing one is dropped and the
-        rest refitted, until every remaining term replicates.
-        """
-        rows = self.fit_rows
-        regions = self._row_regions(rows)
-        if regions is None or len(np.unique(regions)) < 2:
-            return current
-        while current.terms:
-            alpha = REPLICATE_ALPHA / len(current.terms)
-            worst = None
-            for i in range(len(current.terms)):
-                q, pv, parts = self._replicates(current, i, regions)
-                if pv < alpha and (worst is None or pv < worst[1]):
-                    worst = (i, pv, q, parts)
-            if worst is None:
-                break
-            i, pv, q, parts = worst
-            t = current.terms[i]
-            names = [*t.effect.lin, *t.effect.nl]
-            spread = "; ".join(
-                ", ".join(f"{n} {v:+.3g} ± {s:.2g}" for n, v, s in zip(names, est, se,
-                                                                       strict=True))
-                for _, est, se in parts)
-            text = (f"{t.effect.label} at {t.channel} is not named: refitted on each "
-                    f"operating region (direction × amplitude), its parameters do not "
-                    f"replicate (Cochran Q = {q:.3g}, p = {pv:.2g} < {alpha:.2g}; "
-                    f"corrections to the joint fit per region: {spread}); a law whose "
-                    "parameters change with the operating point is standing in for an "
-                    "effect outside the vocabulary")
-            tried[(t.key,)].update(decision="demoted", reason=text)
-            self._forget(sel, t)
-            sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
-                                 "text": text})
-            current = self._drop(current, i)
-        return current
-
     def _direction_offset_errors(self, without: FitResult) -> np.ndarray | None:
         """Validation errors of ``without`` plus the best direction-following offset probe.
 
@@ -1478,15 +1339,43 @@ class Fitter:
 
         For forms whose vocabulary holds no such offset (``direction_offset_probe``: a
         car's yaw or lateral offset that flips with the turn direction is out of its
-        vocabulary), each named term is replaced by the probe of
-        :meth:`_direction_offset_errors`; when the term's validation errors are not
+        vocabulary), the named set as a whole is first compared with the probe of
+        :meth:`_direction_offset_errors` alone (likelihood ratio at :data:`ALPHA`, the
+        set's parameters as degrees of freedom): when the set is not significantly better
+        than the offset, none of it is named. Then each remaining term is replaced by the
+        probe; when the term's validation errors are not
         significantly smaller than the probe's (likelihood ratio at :data:`ALPHA` divided
         by the named terms, the term's parameters as degrees of freedom), the data cannot
         tell the named law from an out-of-vocabulary direction offset and the term is not
         named: the mismatch stays located and unexplained.
         """
-        if not getattr(self.sys, "direction_offset_probe", False):
+        if not getattr(self.sys, "direction_offset_probe", False) or not current.terms:
             return current
+        # the named set as a whole against the offset alone: the stand-ins only work
+        # together (a stiffness ratio, a saturation and an inertia ratio bent into one
+        # odd step), so dropping one of them at a time, the rest refitted without the
+        # offset, would make the comparison unfair to the offset
+        empty = self.fit([], [], full=current.rows is None)
+        alone = self._direction_offset_errors(empty)
+        if alone is None:
+            return current
+        both = self._direction_offset_errors(current)
+        g = likelihood_ratio(alone, both, sum(t.effect.n_params for t in current.terms))
+        p = g.p_value if g.testable else 1.0
+        if p >= ALPHA:
+            labels = ", ".join(f"{t.effect.label} at {t.channel}" for t in current.terms)
+            for t in current.terms:
+                text = (f"{t.effect.label} at {t.channel} is not named: on the validation "
+                        f"blocks the named set ({labels}) is no better than an offset whose "
+                        f"sign follows the direction of motion (held-out gain over that "
+                        f"offset: p = {p:.2g} ≥ {ALPHA:.2g}), which is not in the "
+                        "vocabulary; the mismatch is located but not explained by a named "
+                        "effect")
+                tried[(t.key,)].update(decision="demoted", reason=text)
+                self._forget(sel, t)
+                sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                     "text": text})
+            return empty
         i = 0
         while i < len(current.terms):
             alpha = ALPHA / len(current.terms)
