@@ -1307,8 +1307,7 @@ class Fitter:
         """
         best, best_sse = None, np.inf
         e_train, e_valid = self._errors(without, self.train), self._errors(without, self.valid)
-        for name, v in self._rates().items():
-            del name
+        for v in self._rates().values():
             full = np.zeros(self.n)
             full[self.fit_rows] = np.sign(v)
             cols = []
