@@ -851,6 +851,7 @@ class Fitter:
             remaining = [t for t in remaining if t.key not in done]
         current = self._prune(current, sel, tried)
         current = self._demote_flips(current, sel, tried)
+        current = self._demote_direction_offsets(current, sel, tried)
         current = self._identify(current, sel, tried)
         current = self._separate_aliases(current, sel, tried)
         final = self._confirm(current, sel, tried)
@@ -1292,6 +1293,113 @@ class Fitter:
             sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
                                  "text": text})
             current = self._drop(current, i)
+        return current
+
+    def _direction_offset_errors(self, without: FitResult) -> np.ndarray | None:
+        """Validation errors of ``without`` plus the best direction-following offset probe.
+
+        The probe, out of the vocabulary, is an offset per channel whose sign follows one
+        direction variable of the form (``c_ch · sign(v)``, filtered as the residual is),
+        fitted by least squares to what ``without`` leaves on the training rows; of the
+        form's direction variables (those that take both signs), the one with the
+        smallest validation error is kept. None when no direction variable takes both
+        signs.
+        """
+        best, best_sse = None, np.inf
+        e_train, e_valid = self._errors(without, self.train), self._errors(without, self.valid)
+        for v in self._rates().values():
+            full = np.zeros(self.n)
+            full[self.fit_rows] = np.sign(v)
+            cols = []
+            for ch in range(self.c):
+                x = np.zeros((self.n, self.c))
+                x[:, ch] = full
+                # held between the fit rows: the sign of the nearest fit row before
+                cols.append(self.prepared.smoother(self._hold_rows(x)) * self.mask * self.w)
+            xt = np.stack([c[self.train] for c in cols], axis=-1).reshape(-1, self.c)
+            xv = np.stack([c[self.valid] for c in cols], axis=-1).reshape(-1, self.c)
+            coef = np.linalg.lstsq(xt, e_train.ravel(), rcond=None)[0]
+            ev = e_valid - (xv @ coef).reshape(e_valid.shape)
+            sse = float(np.sum(ev**2))
+            if sse < best_sse:
+                best, best_sse = ev, sse
+        return best
+
+    def _hold_rows(self, x: np.ndarray) -> np.ndarray:
+        """``x`` (N, C), known on the fit rows, held to every grid row (last fit row before)."""
+        rows = np.sort(self.fit_rows)
+        idx = np.clip(np.searchsorted(rows, np.arange(self.n), side="right") - 1, 0,
+                      len(rows) - 1)
+        return x[rows[idx]]
+
+    def _demote_direction_offsets(self, current: FitResult, sel: Selection, tried: dict
+                                  ) -> FitResult:
+        """Drop named effects no better than an offset whose sign follows the direction.
+
+        For forms whose vocabulary holds no such offset (``direction_offset_probe``: a
+        car's yaw or lateral offset that flips with the turn direction is out of its
+        vocabulary), the named set as a whole is first compared with the probe of
+        :meth:`_direction_offset_errors` alone (likelihood ratio at :data:`ALPHA`, the
+        set's parameters as degrees of freedom): when the set is not significantly better
+        than the offset, none of it is named. Then each remaining term is replaced by the
+        probe; when the term's validation errors are not
+        significantly smaller than the probe's (likelihood ratio at :data:`ALPHA` divided
+        by the named terms, the term's parameters as degrees of freedom), the data cannot
+        tell the named law from an out-of-vocabulary direction offset and the term is not
+        named: the mismatch stays located and unexplained.
+        """
+        if not getattr(self.sys, "direction_offset_probe", False) or not current.terms:
+            return current
+        # the named set as a whole against the offset alone: the stand-ins only work
+        # together (a stiffness ratio, a saturation and an inertia ratio bent into one
+        # odd step), so dropping one of them at a time, the rest refitted without the
+        # offset, would make the comparison unfair to the offset
+        empty = self.fit([], [], full=current.rows is None)
+        alone = self._direction_offset_errors(empty)
+        if alone is None:
+            return current
+        both = self._direction_offset_errors(current)
+        g = likelihood_ratio(alone, both, sum(t.effect.n_params for t in current.terms))
+        p = g.p_value if g.testable else 1.0
+        if p >= ALPHA:
+            labels = ", ".join(f"{t.effect.label} at {t.channel}" for t in current.terms)
+            for t in current.terms:
+                text = (f"{t.effect.label} at {t.channel} is not named: on the validation "
+                        f"blocks the named set ({labels}) is no better than an offset whose "
+                        f"sign follows the direction of motion (held-out gain over that "
+                        f"offset: p = {p:.2g} ≥ {ALPHA:.2g}), which is not in the "
+                        "vocabulary; the mismatch is located but not explained by a named "
+                        "effect")
+                tried[(t.key,)].update(decision="demoted", reason=text)
+                self._forget(sel, t)
+                sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                     "text": text})
+            return empty
+        i = 0
+        while i < len(current.terms):
+            alpha = ALPHA / len(current.terms)
+            without = self._drop(current, i)
+            probe = self._direction_offset_errors(without)
+            if probe is None:
+                return current
+            g = likelihood_ratio(probe, self._direction_offset_errors(current),
+                                 current.terms[i].effect.n_params)
+            p = g.p_value if g.testable else 1.0
+            if p < alpha:
+                i += 1
+                continue
+            t = current.terms[i]
+            text = (f"{t.effect.label} at {t.channel} is not named: on the validation "
+                    "blocks it is no better than an offset whose sign follows the direction "
+                    f"of motion (held-out gain over that offset: p = {p:.2g} ≥ {alpha:.2g}),"
+                    " which is not in the vocabulary; the mismatch is located but not "
+                    "explained by a named effect")
+            tried[(t.key,)].update(decision="demoted", reason=text)
+            self._forget(sel, t)
+            sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                 "text": text})
+            current = without
+            i = 0
         return current
 
     def _joint(self, fit: FitResult) -> dict[str, Any]:

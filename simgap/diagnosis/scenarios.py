@@ -190,8 +190,15 @@ def join_runs(runs: Sequence[Recording], gap: float = RUN_GAP, name: str | None 
 
 def circles(effects: Sequence[InjectedEffect], seed: int, *,
             directions: Sequence[str] = ("left", "right"), run_duration: float = 20.0,
-            ay_peak: float = 6.0, vx: float = 20.0) -> Scenario:
+            ay_peak: float = 6.0, vx: float = 20.0, turn_yaw_offset: float = 0.0
+            ) -> Scenario:
     """Steady circles, one turn direction per run, runs joined by :data:`RUN_GAP`.
+
+    With ``turn_yaw_offset`` each run also carries a constant yaw acceleration whose sign
+    follows its turn direction (+ on left turns, − on right turns): an effect **out of the
+    vocabulary** (no constant and no named law of the motion reproduces it on both
+    directions), which a right diagnosis locates but explains by no named effect. It is
+    recorded in ``truth`` only, never in ``expected``.
 
     Args:
         effects: injected effects (bicycle vocabulary).
@@ -201,18 +208,28 @@ def circles(effects: Sequence[InjectedEffect], seed: int, *,
         ay_peak: steady lateral acceleration of the largest level on the nominal vehicle
             (m/s²).
         vx: mean speed (m/s).
+        turn_yaw_offset: size of the direction-following yaw acceleration (rad/s²), ≥ 0;
+            0 = none.
 
     Returns:
         The :class:`Scenario` (model ``"bicycle"``, expected = the injected effects).
     """
+    if not (np.isfinite(turn_yaw_offset) and turn_yaw_offset >= 0):
+        raise GeneratorError(f"circles: turn_yaw_offset must be ≥ 0, got {turn_yaw_offset!r}")
     runs = []
     for k, d in enumerate(directions):
         if d not in ("left", "right"):
             raise GeneratorError(f"circles: direction must be 'left' or 'right', got {d!r}")
-        runs.append(generate_bicycle(effects, duration=run_duration, seed=seed + 1000 * k,
+        run_effects = list(effects)
+        if turn_yaw_offset > 0:
+            sign = 1.0 if d == "left" else -1.0
+            run_effects.append(InjectedEffect(effect="yaw_bias",
+                                              params={"dr0": sign * turn_yaw_offset}))
+        runs.append(generate_bicycle(run_effects, duration=run_duration, seed=seed + 1000 * k,
                                      program=f"circles_{d}", ay_peak=ay_peak, vx=vx,
                                      vx_variation=0.05))
     rec = join_runs(runs, name=f"circles_seed{seed}")
     return Scenario(recording=rec, model="bicycle", expected=list(effects),
                     truth={"injected": [e.to_dict() for e in effects],
-                           "directions": list(directions)})
+                           "directions": list(directions),
+                           "turn_yaw_offset": float(turn_yaw_offset)})

@@ -967,6 +967,9 @@ class BicycleSystem:
     #: Variables whose sign is the direction of motion (turn direction); not vx, which is
     #: positive whenever the car drives forward.
     direction_variables = ("vy", "r")
+    #: The vocabulary holds no offset whose sign follows the turn direction: a named effect
+    #: must beat one (:meth:`.fit.Fitter._demote_direction_offsets`).
+    direction_offset_probe = True
 
     def __init__(self, model: BicycleNominal | None = None,
                  columns: AdapterColumns = BICYCLE_COLUMNS, name: str | None = None,
