@@ -53,6 +53,7 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     bound_error2,
+    column_norms2,
     dot,
     jacobian_norm2,
     normalised_rates,
@@ -318,13 +319,16 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             l2 = leak * R[HP_RHO2]
         k1 = dt * eta1
         k2 = dt * eta2
+        ss = dot(T, ts, T, ts, h)
+        xx = dot(T, txn, T, txn, p)
+        dd = dot(T, td, T, td, n)
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
-            dd = bound_error2(mode, T, td, txt, n, inv / (a_d * R[HP_LAM]))
-            k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
-                                      dd, jacobian_norm2(R, ow, n, h, T, ts), ce)
+            column_norms2(R, ow, n, h, T, tsc + h)  # unified_update's scratch: b only
+            k1, k2 = normalised_rates(k1, k2, ss, xx,
+                                      bound_error2(mode, dd, T, txt, n, inv / (a_d * R[HP_LAM])),
+                                      jacobian_norm2(T, tsc + h, ts, h), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
-                              l1, l2, R[HP_MAXN], HP_NORM2,
-                              tsc):
+                              l1, l2, R[HP_MAXN], HP_NORM2, tsc, ss, xx, dd):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results
     if fresh:
