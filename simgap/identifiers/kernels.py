@@ -68,8 +68,9 @@ from simgap.identifiers.network import forward, forward_keep
 from simgap.identifiers.scales import (
     block_size,
     delta_factor,
+    mean_square,
     normalise_inputs,
-    rms,
+    scale_beta,
     scale_outputs,
     update_scales,
     update_whiteness,
@@ -300,15 +301,15 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
                                                    - a_d * T[_ix(txt + r)])
     if not _finite(T, txh1, n):
         return STATUS_STATE_DIVERGED
-    eps_rms = 0.0  # RMS of the residual sample ε_k (running scales only)
+    eps_ms = 0.0  # mean square of the residual sample ε_k (running scales only)
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
         inv = 1.0
         if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
             for r in range(n):
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
-            eps_rms = rms(T, ty + n, n)
-            inv = delta_factor(R, ons, p, eps_rms)
+            eps_ms = mean_square(T, ty + n, n)
+            inv = delta_factor(R, ons, p, eps_ms)
             for r in range(n):
                 T[_ix(td + r)] *= inv
         l1 = 0.0
@@ -336,10 +337,11 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             R[_ix(oz + r)] = 0.0
     if act == LEARN and mode == INTEGRAL:
         z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
-    if act == LEARN and adc != 0.0:
-        update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, rate, dt)
     if act == LEARN and rate > 0.0:
-        update_scales(R, ow, n, h, p, ons, T, txb, eps_rms, rate, dt, HP_NORM2)
+        beta = scale_beta(R, ons, rate, dt)
+        if adc != 0.0:
+            update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, beta)
+        update_scales(R, ow, n, h, p, ons, T, txb, eps_ms, beta, HP_NORM2)
     for r in range(n):
         xh1 = T[_ix(txh1 + r)]
         R[_ix(oxh + r)] = xh1
@@ -585,7 +587,8 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
                 for r in range(n):
                     T[_ix(ty + r)] = ((x_next[_ix(io + r)] - x[_ix(io + r)]) / dt
                                       - f[_ix(io + r)])
-                update_scales(R, ow, n, h, p, ons, R, oxb, rms(T, ty, n), rate, dt, HP_NORM2)
+                update_scales(R, ow, n, h, p, ons, R, oxb, mean_square(T, ty, n),
+                              scale_beta(R, ons, rate, dt), HP_NORM2)
     return nfail, ndue
 
 

@@ -120,7 +120,7 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
             wd += jacobian_norm2(T, oc, os, h)
         backprop(R, ow, n, h, p, T, od, os, xin, oin, ogw, osc)
     if ons >= 0:  # s → s_eff = max(s, batch RMS of ε): the gradient is linear in δ
-        c = delta_factor(R, ons, p, (ee / (m * n)) ** 0.5) / inv if inv > 0.0 else 0.0
+        c = delta_factor(R, ons, p, ee / (m * n)) / inv if inv > 0.0 else 0.0
         eta1 *= c
         eta2 *= c
         dd *= c * c
