@@ -68,6 +68,7 @@ from simgap.identifiers.network import forward, forward_keep
 from simgap.identifiers.scales import (
     block_size,
     delta_factor,
+    gated,
     mean_square,
     normalise_inputs,
     scale_beta,
@@ -268,10 +269,10 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     adc = R[HP_ADC]
     if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
         wg = whiteness(R, ons, p)
-        a_d += wg * (adc - a_d)
-        eta1 += wg * (R[HP_ETA1C] - eta1)
-        eta2 += wg * (R[HP_ETA2C] - eta2)
-        ce += wg * (R[HP_ESCALEC] - ce)
+        a_d = gated(a_d, adc, wg)
+        eta1 = gated(eta1, R[HP_ETA1C], wg)
+        eta2 = gated(eta2, R[HP_ETA2C], wg)
+        ce = gated(ce, R[HP_ESCALEC], wg)
     fresh = R[oini] == 0.0  # fresh observer: x̂_k = x_k, z_k = 0
     for r in range(n):
         xr = x[_ix(io + r)]

@@ -160,6 +160,12 @@ def whiteness(R, ons, p):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def gated(v, v_clean, w):  # pragma: no cover - compiled (also called as .py_func)
+    """Return v + ρ⁺ (v_clean − v): a gated rate (a_d, η1, η2, c_e) at smooth share ``w`` = ρ⁺."""
+    return v + w * (v_clean - v)
+
+
+@njit(cache=True, inline="always")
 def update_whiteness(R, ons, p, xt, oxt, xn, oxn, xh1, oxh1, n,
                      beta):  # pragma: no cover - compiled
     """One step of the statistics of :func:`whiteness` (call before :func:`update_scales`).
