@@ -37,7 +37,16 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   negative-index wrap-around) and σ = tanh is straight-line arithmetic
   (:mod:`~simgap.identifiers.activation`);
 * the divergence bound uses weight norms tracked by an exact identity instead of a backup
-  pass over the weights (:func:`~simgap.identifiers.laws.unified_update`).
+  pass over the weights (:func:`~simgap.identifiers.laws.unified_update`);
+* the ``auto`` preset's extras (running scales, noise gate, bound-normalised steps; issue 14
+  allows 1.3× the thesis preset's step): LLVM does not reorder a float sum, so every
+  reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is taken from Ŵ's column norms
+  (vectorised; n_h serial terms instead of n·n_h, once per baseline-2 mini-batch);
+  ‖σ‖², ‖x̄‖², ‖δ‖² are summed once and shared with the update; s_eff comes from mean
+  squares (one square root, one division) and the means' β once per step. Measured
+  (``bench_identifiers.py --scales-only``, 200 interleaved runs, load ≈ 4): ``auto`` over
+  thesis 1.22-1.26 (instantaneous), 1.29-1.32 (integral), 1.31-1.32 (mini-batch), from
+  1.44, 1.47, 1.76 (40 runs, load 5.5) before.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
