@@ -156,6 +156,14 @@ class BatchIdentifier(IdentifierBase):
         return self._field("x_tilde").copy()
 
     @property
+    def observer_gain(self) -> np.ndarray:
+        """a_d (1/s) each row's observer uses at the next step, (N,).
+
+        See ``Identifier.observer_gain``.
+        """
+        return self._observer_gains()
+
+    @property
     def e(self) -> np.ndarray:
         """Error signals of the last step, (N, n)."""
         return self._field("e").copy()

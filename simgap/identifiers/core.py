@@ -22,6 +22,7 @@ from simgap.identifiers.config import (
 from simgap.identifiers.errors import IdentifierDivergedError, IdentifierError
 from simgap.identifiers.minibatch import DUE, FILLED
 from simgap.identifiers.network import init_weights
+from simgap.identifiers.scales import gated, whiteness
 from simgap.models.base import wrap_angle
 
 #: Observer-law batches from this many rows up run on all of numba's threads (the rows are
@@ -353,6 +354,21 @@ class IdentifierBase:
 
     def _initialised(self) -> np.ndarray:
         return self._state[:, self._lay["oini"]] != 0.0
+
+    def _observer_gains(self) -> np.ndarray:
+        """a_d the next step uses, per row (N,), 1/s: the noise gate's a_d(ρ⁺) or ``a_d``.
+
+        With the gate on (``a_d_clean`` ≠ 0), a_d(ρ⁺) = a_d + ρ⁺ (a_d_clean − a_d) at the
+        current statistics (:func:`~simgap.identifiers.scales.whiteness`), the kernel's
+        formula (:func:`~simgap.identifiers.scales.gated`); otherwise the configured a_d.
+        """
+        cfg = self.config
+        if cfg.a_d_clean == 0.0:
+            return np.full(self.n_envs, float(cfg.a_d))
+        ons = K.scale_block.py_func(self.n_states, self.n_inputs, self.n_hidden)
+        return np.array([gated.py_func(float(cfg.a_d), float(cfg.a_d_clean),
+                                       whiteness.py_func(row, ons, self.n_in))
+                         for row in self._state])
 
     @property
     def observes(self) -> bool:

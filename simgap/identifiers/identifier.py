@@ -160,6 +160,16 @@ class Identifier(IdentifierBase):
         return self._xt_view.copy()
 
     @property
+    def observer_gain(self) -> float:
+        """a_d (1/s) the observer uses at the next step.
+
+        ``config.a_d``, or with the integral law's noise gate (``config.a_d_clean`` ≠ 0)
+        a_d + ρ⁺ (a_d_clean − a_d) at the measured smooth share ρ⁺ of x̃: the gain that
+        sets the quasi-static error x̃ ≈ (g − ĝ)/|a_d| (eq. 3.5).
+        """
+        return float(self._observer_gains()[0])
+
+    @property
     def e(self) -> np.ndarray:
         """Error signal that drove the last update: x̃_k, z_k, or the prediction error."""
         return self._e_view.copy()

@@ -37,7 +37,16 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   negative-index wrap-around) and σ = tanh is straight-line arithmetic
   (:mod:`~simgap.identifiers.activation`);
 * the divergence bound uses weight norms tracked by an exact identity instead of a backup
-  pass over the weights (:func:`~simgap.identifiers.laws.unified_update`).
+  pass over the weights (:func:`~simgap.identifiers.laws.unified_update`);
+* the ``auto`` preset's extras (running scales, noise gate, bound-normalised steps; issue 14
+  allows 1.3× the thesis preset's step): LLVM does not reorder a float sum, so every
+  reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is taken from Ŵ's column norms
+  (vectorised; n_h serial terms instead of n·n_h, once per baseline-2 mini-batch);
+  ‖σ‖², ‖x̄‖², ‖δ‖² are summed once and shared with the update; s_eff comes from mean
+  squares (one square root, one division) and the means' β once per step. Measured
+  (``bench_identifiers.py --scales-only``, 200 interleaved runs, load ≈ 4): ``auto`` over
+  thesis 1.22-1.26 (instantaneous), 1.29-1.32 (integral), 1.31-1.32 (mini-batch), from
+  1.44, 1.47, 1.76 (40 runs, load 5.5) before.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
@@ -53,6 +62,7 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     bound_error2,
+    column_norms2,
     dot,
     jacobian_norm2,
     normalised_rates,
@@ -67,8 +77,10 @@ from simgap.identifiers.network import forward, forward_keep
 from simgap.identifiers.scales import (
     block_size,
     delta_factor,
+    gated,
+    mean_square,
     normalise_inputs,
-    rms,
+    scale_beta,
     scale_outputs,
     update_scales,
     update_whiteness,
@@ -266,10 +278,10 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     adc = R[HP_ADC]
     if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
         wg = whiteness(R, ons, p)
-        a_d += wg * (adc - a_d)
-        eta1 += wg * (R[HP_ETA1C] - eta1)
-        eta2 += wg * (R[HP_ETA2C] - eta2)
-        ce += wg * (R[HP_ESCALEC] - ce)
+        a_d = gated(a_d, adc, wg)
+        eta1 = gated(eta1, R[HP_ETA1C], wg)
+        eta2 = gated(eta2, R[HP_ETA2C], wg)
+        ce = gated(ce, R[HP_ESCALEC], wg)
     fresh = R[oini] == 0.0  # fresh observer: x̂_k = x_k, z_k = 0
     for r in range(n):
         xr = x[_ix(io + r)]
@@ -299,15 +311,15 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
                                                    - a_d * T[_ix(txt + r)])
     if not _finite(T, txh1, n):
         return STATUS_STATE_DIVERGED
-    eps_rms = 0.0  # RMS of the residual sample ε_k (running scales only)
+    eps_ms = 0.0  # mean square of the residual sample ε_k (running scales only)
     if act == LEARN:
         observer_delta(T, te, a_d, td, n)
         inv = 1.0
         if rate > 0.0:  # δ / s_eff with the residual sample ε_k = ĝ_k − a_d x̃_k (scales.py)
             for r in range(n):
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
-            eps_rms = rms(T, ty + n, n)
-            inv = delta_factor(R, ons, p, eps_rms)
+            eps_ms = mean_square(T, ty + n, n)
+            inv = delta_factor(R, ons, p, eps_ms)
             for r in range(n):
                 T[_ix(td + r)] *= inv
         l1 = 0.0
@@ -318,13 +330,16 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             l2 = leak * R[HP_RHO2]
         k1 = dt * eta1
         k2 = dt * eta2
+        ss = dot(T, ts, T, ts, h)
+        xx = dot(T, txn, T, txn, p)
+        dd = dot(T, td, T, td, n)
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
-            dd = bound_error2(mode, T, td, txt, n, inv / (a_d * R[HP_LAM]))
-            k1, k2 = normalised_rates(k1, k2, dot(T, ts, T, ts, h), dot(T, txn, T, txn, p),
-                                      dd, jacobian_norm2(R, ow, n, h, T, ts), ce)
+            column_norms2(R, ow, n, h, T, tsc + h)  # unified_update's scratch: b only
+            k1, k2 = normalised_rates(k1, k2, ss, xx,
+                                      bound_error2(mode, dd, T, txt, n, inv / (a_d * R[HP_LAM])),
+                                      jacobian_norm2(T, tsc + h, ts, h), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
-                              l1, l2, R[HP_MAXN], HP_NORM2,
-                              tsc):
+                              l1, l2, R[HP_MAXN], HP_NORM2, tsc, ss, xx, dd):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results
     if fresh:
@@ -332,10 +347,11 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
             R[_ix(oz + r)] = 0.0
     if act == LEARN and mode == INTEGRAL:
         z_filter_step(R, oz, T, txt, R[HP_LAM], dt, n)  # eq. 4.6
-    if act == LEARN and adc != 0.0:
-        update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, rate, dt)
     if act == LEARN and rate > 0.0:
-        update_scales(R, ow, n, h, p, ons, T, txb, eps_rms, rate, dt, HP_NORM2)
+        beta = scale_beta(R, ons, rate, dt)
+        if adc != 0.0:
+            update_whiteness(R, ons, p, T, txt, x_next, io, T, txh1, n, beta)
+        update_scales(R, ow, n, h, p, ons, T, txb, eps_ms, beta, HP_NORM2)
     for r in range(n):
         xh1 = T[_ix(txh1 + r)]
         R[_ix(oxh + r)] = xh1
@@ -581,7 +597,8 @@ def _minibatch_rows(S, T, x, u, f, x_next, buf, cnt, nn):  # pragma: no cover - 
                 for r in range(n):
                     T[_ix(ty + r)] = ((x_next[_ix(io + r)] - x[_ix(io + r)]) / dt
                                       - f[_ix(io + r)])
-                update_scales(R, ow, n, h, p, ons, R, oxb, rms(T, ty, n), rate, dt, HP_NORM2)
+                update_scales(R, ow, n, h, p, ons, R, oxb, mean_square(T, ty, n),
+                              scale_beta(R, ons, rate, dt), HP_NORM2)
     return nfail, ndue
 
 

@@ -140,28 +140,44 @@ def dot(a, oa, b, ob, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
-    """‖Ŵ D‖_F² = Σ_r Σ_j Ŵ_rj² (1 − σ_j²)², D = I − Λ: the hidden layer's gain.
+def column_norms2(R, ow, n, h, T, oc):  # pragma: no cover - compiled
+    """c_j = Σ_r Ŵ_rj² (the squared column norms of Ŵ) into ``T[oc : oc + n_h]``.
 
-    Ŵ at ``R[ow:]`` (row-major n × n_h), σ at ``T[os:]``. ‖Ŵ D‖_F² ‖x̄‖² bounds the largest
-    eigenvalue of J_V J_Vᵀ = ‖x̄‖² Ŵ D² Ŵᵀ (J_V = ∂ĝ/∂V̂), the output move of a unit V̂ step.
+    Ŵ at ``R[ow:]`` (row-major n × n_h); summed over r in order, vectorised over j. Ŵ is
+    fixed during a baseline-2 mini-batch, so it is computed once per batch there.
     """
-    acc = 0.0
+    for j in range(h):
+        T[_ix(oc + j)] = 0.0
     for r in range(n):
         base = ow + r * h
         for j in range(h):
-            sj = T[_ix(os + j)]
-            d = 1.0 - sj * sj
             w = R[_ix(base + j)]
-            acc += w * w * d * d
+            T[_ix(oc + j)] += w * w
+
+
+@njit(cache=True, inline="always")
+def jacobian_norm2(T, oc, os, h):  # pragma: no cover - compiled
+    """‖Ŵ D‖_F² = Σ_j (1 − σ_j²)² c_j, D = I − Λ: the hidden layer's gain.
+
+    c_j = Σ_r Ŵ_rj² at ``T[oc:]`` (:func:`column_norms2`), σ at ``T[os:]``. ‖Ŵ D‖_F² ‖x̄‖²
+    bounds the largest eigenvalue of J_V J_Vᵀ = ‖x̄‖² Ŵ D² Ŵᵀ (J_V = ∂ĝ/∂V̂), the output
+    move of a unit V̂ step. Column norms first: the n·n_h products vectorise, and the serial
+    sum has n_h terms instead of n·n_h (one ≈ 4-cycle add each; measured ≈ 0.1 µs per step
+    saved on the arm, ``benchmarks/bench_identifiers.py --scales-only``).
+    """
+    acc = 0.0
+    for j in range(h):
+        sj = T[_ix(os + j)]
+        d = 1.0 - sj * sj
+        acc += d * d * T[_ix(oc + j)]
     return acc
 
 
 @njit(cache=True, inline="always")
-def bound_error2(mode, T, od, oxt, n, f):  # pragma: no cover - compiled
+def bound_error2(mode, dd, T, oxt, n, f):  # pragma: no cover - compiled
     """‖δ‖² for the step bound of :func:`normalised_rates`, observer laws.
 
-    Baseline 1: ‖δ‖² (δ at ``T[od:]``). Integral law: max(‖δ‖², f² ‖x̃‖²) with x̃ at
+    Baseline 1: ``dd`` = ‖δ‖². Integral law: max(‖δ‖², f² ‖x̃‖²) with x̃ at
     ``T[oxt:]`` and f = 1/(a_d λ) (times 1/s_eff with running scales), so that
     c_e² f² ‖x̃‖² = a_d² ‖x̃‖²: the size of the instantaneous error, in the units of
     c_e²‖δ‖² = λ² a_d² ‖z‖² (which z ≈ x̃/λ makes equal to it on a smooth error).
@@ -175,9 +191,8 @@ def bound_error2(mode, T, od, oxt, n, f):  # pragma: no cover - compiled
     0.134/0.148/0.172 → 0.102/0.126/0.120 N·m; clean sines and Case 1 unchanged to the
     third digit.
     """
-    dd = dot(T, od, T, od, n)
     if mode == INTEGRAL:
-        dd = max(dd, dot(T, oxt, T, oxt, n) * f * f)
+        return max(dd, dot(T, oxt, T, oxt, n) * f * f)
     return dd
 
 
@@ -215,7 +230,7 @@ def normalised_rates(k1, k2, ss, xx, dd, ww, ce):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def unified_update(R, ow, n, h, p, T, od, os, oa, og, xb, oxb, k1, k2, l1, l2, max_norm, onorm,
-                   osc):  # pragma: no cover - compiled
+                   osc, ss, xx, dd):  # pragma: no cover - compiled
     """Take one Euler step of the unified law, eq. 3.6-3.7, for the output-space error δ.
 
         Ŵ ← (1 − l1) Ŵ − k1 δ σᵀ,     V̂ ← (1 − l2) V̂ − k2 ((I − Λ) Ŵᵀ δ) x̄ᵀ
@@ -224,7 +239,9 @@ def unified_update(R, ow, n, h, p, T, od, os, oa, og, xb, oxb, k1, k2, l1, l2, m
     l_i = Δt ρ_i ‖x̃‖. Weights at ``R[ow:]`` (layout in :mod:`~simgap.identifiers.network`),
     their squared Frobenius norms ‖Ŵ‖², ‖V̂‖² at ``R[onorm]``, ``R[onorm + 1]``; in ``T``: δ
     at ``od``, σ at ``os``, the pre-activations a = V̂ x̄ at ``oa``, ĝ = Ŵ σ at ``og``, and
-    ``scratch_size`` entries of scratch at ``osc``; x̄ at ``xb[oxb:]``.
+    ``scratch_size`` entries of scratch at ``osc``; x̄ at ``xb[oxb:]``; ``ss`` = ‖σ‖²,
+    ``xx`` = ‖x̄‖², ``dd`` = ‖δ‖² (:func:`dot` of each, computed once by the caller, which
+    needs them for :func:`normalised_rates` too).
 
     The divergence check needs the norms after the step before anything is written. They
     follow from the rank-one form of the step without a pass over the weights:
@@ -242,9 +259,9 @@ def unified_update(R, ow, n, h, p, T, od, os, oa, og, xb, oxb, k1, k2, l1, l2, m
     c1 = 1.0 - l1
     c2 = 1.0 - l2
     wn2 = (c1 * c1 * R[onorm] - 2.0 * c1 * k1 * dot(T, od, T, og, n)
-           + k1 * k1 * dot(T, od, T, od, n) * dot(T, os, T, os, h))
+           + k1 * k1 * dd * ss)
     vn2 = (c2 * c2 * R[onorm + 1] - 2.0 * c2 * k2 * dot(T, ob, T, oa, h)
-           + k2 * k2 * dot(T, ob, T, ob, h) * dot(xb, oxb, xb, oxb, p))
+           + k2 * k2 * dot(T, ob, T, ob, h) * xx)
     if not wn2 + vn2 <= max_norm * max_norm:  # also catches NaN and inf
         return False
     nw = n * h

@@ -25,6 +25,7 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 from simgap.identifiers.laws import (
     apply_gradients,
     backprop,
+    column_norms2,
     dot,
     jacobian_norm2,
     normalised_rates,
@@ -92,6 +93,9 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     ee = 0.0  # Σ ‖ε_j‖², ε_j = −d_j / Δt the batch's residual samples (running scales)
     inv = 1.0 / output_scale(R, ons, p) if ons >= 0 and output_scale(R, ons, p) > 0.0 \
         else 0.0
+    oc = osc + h  # Ŵ's column norms (Ŵ is fixed over the batch; backprop uses T[osc:osc+h])
+    if ce > 0.0:
+        column_norms2(R, ow, n, h, T, oc)
     for j in range(m):
         row = buf[idx[j]]
         if ons >= 0:
@@ -113,10 +117,10 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
             ss += dot(T, os, T, os, h)
             xx += dot(xin, oin, xin, oin, p)
             dd += dot(T, od, T, od, n)
-            wd += jacobian_norm2(R, ow, n, h, T, os)
+            wd += jacobian_norm2(T, oc, os, h)
         backprop(R, ow, n, h, p, T, od, os, xin, oin, ogw, osc)
     if ons >= 0:  # s → s_eff = max(s, batch RMS of ε): the gradient is linear in δ
-        c = delta_factor(R, ons, p, (ee / (m * n)) ** 0.5) / inv if inv > 0.0 else 0.0
+        c = delta_factor(R, ons, p, ee / (m * n)) / inv if inv > 0.0 else 0.0
         eta1 *= c
         eta2 *= c
         dd *= c * c

@@ -87,33 +87,41 @@ def scale_outputs(R, ons, n, p, y, oy, g, og):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def rms(a, oa, k):  # pragma: no cover - compiled
-    """√(Σ a_i² / k) over ``a[oa : oa + k]``."""
+def mean_square(a, oa, k):  # pragma: no cover - compiled
+    """Σ a_i² / k over ``a[oa : oa + k]`` (the squared RMS of a residual sample)."""
     acc = 0.0
     for i in range(k):
         v = a[_ix(oa + i)]
         acc += v * v
-    return math.sqrt(acc / k)
+    return acc / k
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def delta_factor(R, ons, p, sample_rms):  # pragma: no cover - compiled
-    """1 / s_eff, s_eff = max(s, ``sample_rms``): δ in normalised output units (0 if 0)."""
-    s = max(output_scale(R, ons, p), sample_rms)
-    return 1.0 / s if s > 0.0 else 0.0
+def delta_factor(R, ons, p, sample_ms):  # pragma: no cover - compiled
+    """1 / s_eff, s_eff = max(s, √``sample_ms``): δ in normalised output units (0 if 0).
+
+    Taken as 1/√max(s², ``sample_ms``): one square root and one division.
+    """
+    s2 = max(R[_ix(ons + 1 + p)], sample_ms)
+    return 1.0 / math.sqrt(s2) if s2 > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def update_scales(R, ow, n, h, p, ons, xb, oxb, e, rate, dt,
+def scale_beta(R, ons, rate, dt):  # pragma: no cover - compiled
+    """β = max(1/(k + 1), min(1, Δt · scale_rate)) of the running means (k = sample count)."""
+    return max(1.0 / (R[ons] + 1.0), min(1.0, rate * dt))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def update_scales(R, ow, n, h, p, ons, xb, oxb, e2, beta,
                   onorm):  # pragma: no cover - compiled
     """One step of the running statistics and the output-preserving rescale of Ŵ.
 
-    ``xb[oxb:]`` holds the raw x̄_k (p), ``e`` is the RMS of the residual sample ε_k
-    (:func:`rms` over its n rows; the caller has it already for :func:`delta_factor`). The
+    ``xb[oxb:]`` holds the raw x̄_k (p), ``e2`` is the mean square of the residual sample
+    ε_k (:func:`mean_square` over its n rows; the caller has it already for
+    :func:`delta_factor`), ``beta`` the step of the means (:func:`scale_beta`). The
     squared norm ‖Ŵ‖² at ``R[onorm]`` follows the rescale (V̂ is not touched).
     """
-    k = R[ons]
-    beta = max(1.0 / (k + 1.0), min(1.0, rate * dt))
     om = ons + 1
     for c in range(p):
         old = R[_ix(om + c)]
@@ -121,14 +129,14 @@ def update_scales(R, ow, n, h, p, ons, xb, oxb, e, rate, dt,
         R[_ix(om + c)] = old + beta * (v * v - old)
     oo = om + p
     old = R[oo]
-    new = old + beta * (e * e - old)
+    new = old + beta * (e2 - old)
     R[oo] = new
     if old > 0.0 and new > 0.0 and old != new:
         f = math.sqrt(old / new)
         for j in range(n * h):
             R[_ix(ow + j)] *= f
         R[onorm] *= f * f
-    R[ons] = k + 1.0
+    R[ons] += 1.0
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -152,15 +160,20 @@ def whiteness(R, ons, p):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def update_whiteness(R, ons, p, xt, oxt, xn, oxn, xh1, oxh1, n, rate,
-                     dt):  # pragma: no cover - compiled
+def gated(v, v_clean, w):  # pragma: no cover - compiled (also called as .py_func)
+    """Return v + ρ⁺ (v_clean − v): a gated rate (a_d, η1, η2, c_e) at smooth share ``w`` = ρ⁺."""
+    return v + w * (v_clean - v)
+
+
+@njit(cache=True, inline="always")
+def update_whiteness(R, ons, p, xt, oxt, xn, oxn, xh1, oxh1, n,
+                     beta):  # pragma: no cover - compiled
     """One step of the statistics of :func:`whiteness` (call before :func:`update_scales`).
 
     ``xt[oxt:]`` holds x̃_k; x̃_{k+1} = x_{k+1} − x̂_{k+1} from ``xn[oxn:]`` and
-    ``xh1[oxh1:]`` (n each); the same exponential mean and sample count as the scales.
+    ``xh1[oxh1:]`` (n each); the same exponential mean (``beta``, :func:`scale_beta`) and
+    sample count as the scales.
     """
-    k = R[ons]
-    beta = max(1.0 / (k + 1.0), min(1.0, rate * dt))
     o0 = ons + 2 + p
     a0 = 0.0
     a1 = 0.0

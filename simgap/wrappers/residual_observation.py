@@ -25,7 +25,8 @@ Scale (``scale=``; the raw ĝ is always in ``info["residual_estimate"]``):
 * a positive number or an array of the state size: a declared residual scale in state
   units/s (e.g. the RMS of the nominal model's f, or a known bound); ĝ / s and
   x̃·|a_d| / s (the observer's quasi-static error x̃ ≈ (g − ĝ)/|a_d|, eq. 3.5, in residual
-  units), clipped to ±``clip``.
+  units; a_d is the gain the observer runs with, ``Identifier.observer_gain``: the integral
+  law's noise gate moves it between ``a_d`` and ``a_d_clean``), clipped to ±``clip``.
 * ``None``: the raw ĝ and x̃ (the behaviour before issue 14). Bounds: |ĝ_r| ≤ √n_h ·
   max_weight_norm (tanh is bounded by 1 and ‖Ŵ‖_F ≤ max_weight_norm, else the identifier
   raises), and (−∞, ∞) for x̃.
@@ -152,7 +153,6 @@ class ResidualObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise IdentifierError(f"ResidualObservation: scale must be 'running', None, a "
                                   f"positive number or {n} positive numbers, got {scale!r}")
         self._declared = _declared_scale(scale, n) if self.scale_mode == "declared" else None
-        self._error_gain = abs(float(ident.config.a_d))
         self._g_rms = RunningRMS(n, self.clip)
         self._x_rms = RunningRMS(n, self.clip)
         self._scale_reset_point = self.scale_state()
@@ -216,8 +216,9 @@ class ResidualObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             return g, xt
         if self._declared is not None:
             c = self.clip
+            gain = abs(self.identifier_wrapper.identifier.observer_gain)
             return (np.clip(g / self._declared, -c, c),
-                    np.clip(xt * self._error_gain / self._declared, -c, c))
+                    np.clip(xt * gain / self._declared, -c, c))
         self._g_rms.update(g)
         self._x_rms.update(xt)
         return self._g_rms.normalise(g), self._x_rms.normalise(xt)

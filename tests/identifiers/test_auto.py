@@ -150,7 +150,7 @@ def test_auto_batch_rows_equal_single_identifiers():
 def test_running_scales_preserve_the_function_and_give_raw_unit_weights(kind):
     """An output-scale update rescales Ŵ so ĝ(x̄) is unchanged; W, V are in raw units."""
     from simgap.identifiers.network import network_forward
-    from simgap.identifiers.scales import update_scales
+    from simgap.identifiers.scales import scale_beta, update_scales
 
     x, u, f = _stream(7, 300)
     x = x * np.array([30.0, 0.02, 5.0, 1.0])  # inputs of very different magnitudes
@@ -167,8 +167,8 @@ def test_running_scales_preserve_the_function_and_give_raw_unit_weights(kind):
     ons = K.scale_block.py_func(n, m, h)
     m_out_before = ident._scale_stats()[1].copy()
     same_inputs = np.sqrt(ident._scale_stats()[0][0])  # v² = m: the input scales stay
-    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0, 3.0, 50.0, 0.002,
-                  K.HP_NORM2)
+    update_scales(row, K.HP_SIZE, n, h, n + m, ons, same_inputs, 0, 3.0**2,
+                  scale_beta(row, ons, 50.0, 0.002), K.HP_NORM2)
     assert not np.allclose(ident._scale_stats()[1], m_out_before)
     np.testing.assert_allclose(ident.predict(xb), before, rtol=1e-12, atol=1e-14)
     w = ident._state[0, K.HP_SIZE:K.HP_SIZE + n * h]
@@ -203,7 +203,7 @@ def test_format_2_files_load_and_continue_identically(kind, tmp_path):
 
 def test_whiteness_is_the_smooth_share_of_the_observer_error():
     """ρ⁺ ≈ S / (S + N): ≈ 1 for a smooth x̃, ≈ 0 for white noise, ≈ ½ for equal powers."""
-    from simgap.identifiers.scales import update_whiteness, whiteness
+    from simgap.identifiers.scales import scale_beta, update_whiteness, whiteness
 
     n, p, k = 3, 5, 20000
     rng = np.random.default_rng(0)
@@ -215,8 +215,8 @@ def test_whiteness_is_the_smooth_share_of_the_observer_error():
         R = np.zeros(p + 4)
         assert whiteness.py_func(R, 0, p) == 0.0  # nothing measured yet: the noise-safe end
         for j in range(k):
-            update_whiteness.py_func(R, 0, p, sig[j], 0, sig[j + 1], 0, zero, 0, n, 0.0,
-                                     0.002)
+            update_whiteness.py_func(R, 0, p, sig[j], 0, sig[j + 1], 0, zero, 0, n,
+                                     scale_beta.py_func(R, 0, 0.0, 0.002))
             R[0] += 1.0  # the sample count, as update_scales advances it
         assert whiteness.py_func(R, 0, p) == pytest.approx(want, abs=0.05)
 

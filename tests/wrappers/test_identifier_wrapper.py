@@ -188,3 +188,27 @@ def test_residual_observation_declared_scale_and_bad_scales():
         ResidualObservation(DampedPendulumEnv(), clip=0)
     with pytest.raises(IdentifierError, match="already contains"):
         ResidualObservation(IdentifierWrapper(DampedPendulumEnv()), identifier="minibatch")
+
+
+def test_residual_observation_declared_scale_uses_the_gated_observer_gain():
+    """x̃·|a_d| / s with the a_d the observer runs with: the integral law's noise gate moves it.
+
+    At Δt = 2 ms the ``auto`` integral law's gate is on (a_d = −50, a_d_clean = −100 s⁻¹);
+    on this clean pendulum ρ⁺ → 1, so the configured a_d would under-read the residual
+    error by up to 2×.
+    """
+    inner = DampedPendulumEnv(max_steps=2000)
+    inner.nominal_model.dt = 0.002
+    env = ResidualObservation(inner, include_error=True, scale=[2.0, 0.5], clip=1e9)
+    ident = env.identifier_wrapper.identifier
+    cfg = ident.config
+    assert cfg.a_d_clean != 0.0 and ident.observer_gain == cfg.a_d  # ρ⁺ = 0 before data
+    env.reset(seed=0)
+    for k in range(1500):
+        obs, _, _, _, info = env.step(np.array([np.sin(0.01 * k)], dtype=np.float32))
+        gain = ident.observer_gain
+        np.testing.assert_allclose(obs[4:], info["estimation_error"] * abs(gain) / [2.0, 0.5],
+                                   rtol=1e-6, atol=1e-30)
+    assert cfg.a_d_clean <= gain < 1.2 * cfg.a_d  # the gate has moved it well past a_d
+    batch_gain = ident._observer_gains()
+    assert batch_gain.shape == (1,) and batch_gain[0] == gain
