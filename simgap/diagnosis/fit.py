@@ -1370,10 +1370,7 @@ class Fitter:
                         f"offset: p = {p:.2g} ≥ {ALPHA:.2g}), which is not in the "
                         "vocabulary; the mismatch is located but not explained by a named "
                         "effect")
-                tried[(t.key,)].update(decision="demoted", reason=text)
-                self._forget(sel, t)
-                sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
-                                     "text": text})
+                self._demote(sel, tried, t, text)
             return empty
         i = 0
         while i < len(current.terms):
@@ -1394,13 +1391,16 @@ class Fitter:
                     f"of motion (held-out gain over that offset: p = {p:.2g} ≥ {alpha:.2g}),"
                     " which is not in the vocabulary; the mismatch is located but not "
                     "explained by a named effect")
-            tried[(t.key,)].update(decision="demoted", reason=text)
-            self._forget(sel, t)
-            sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
-                                 "text": text})
+            self._demote(sel, tried, t, text)
             current = without
             i = 0
         return current
+
+    def _demote(self, sel: Selection, tried: dict, t: Term, text: str) -> None:
+        """Record that ``t`` is not named (``text`` says why), as decision and warning."""
+        tried[(t.key,)].update(decision="demoted", reason=text)
+        self._forget(sel, t)
+        sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel], "text": text})
 
     def _joint(self, fit: FitResult) -> dict[str, Any]:
         """Joint identifiability of a fit's parameters (report keys, plus ``_analysis``)."""
