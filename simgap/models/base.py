@@ -36,7 +36,7 @@ Example: a 1-DOF pendulum (mass 1 kg, length 1 m) that a user wraps::
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -159,10 +159,30 @@ class OneDofMechanicalModel(MechanicalNominalModel):
     :meth:`f`. What follows from J alone is written here once.
     """
 
+    #: What subclasses set in ``__init__`` (read by :meth:`__repr__` and the units below).
+    params: Any
+    dt: float
+    channel_names: tuple[str]
+    name: str
+
+    def __repr__(self) -> str:
+        return (f"{type(self).__name__}(params={self.params!r}, dt={self.dt}, "
+                f"channel={self.channel_names[0]!r}, name={self.name!r})")
+
     @property
     def joint_inertia(self) -> float:
         """The constant inertia J (kg·m², revolute) or mass (kg, prismatic)."""
         raise NotImplementedError
+
+    @property
+    def position_units(self) -> tuple[str, ...]:
+        """Unit of q (m or rad): the observation's first unit."""
+        return (self.obs_units[0],)
+
+    @property
+    def velocity_units(self) -> tuple[str, ...]:
+        """Unit of dq (m/s or rad/s): the observation's second unit."""
+        return (self.obs_units[1],)
 
     @property
     def residual_names(self) -> tuple[str, ...]:

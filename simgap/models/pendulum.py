@@ -83,24 +83,10 @@ class PendulumNominal(OneDofMechanicalModel):
         self.channel_names = (channel,)
         self.name = name
 
-    def __repr__(self) -> str:
-        return (f"PendulumNominal(params={self.params!r}, dt={self.dt}, "
-                f"channel={self.channel_names[0]!r}, name={self.name!r})")
-
     @property
     def joint_inertia(self) -> float:
         """J (kg·m²)."""
         return self.params.inertia
-
-    @property
-    def position_units(self) -> tuple[str, ...]:
-        """Unit of q (rad)."""
-        return ("rad",)
-
-    @property
-    def velocity_units(self) -> tuple[str, ...]:
-        """Unit of dq (rad/s)."""
-        return ("rad/s",)
 
     def nominal_coefficients(self) -> dict[str, tuple[float, ...]]:
         """The model's own per-joint passive terms: ``damping`` (N·m·s/rad)."""

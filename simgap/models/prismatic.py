@@ -88,24 +88,10 @@ class RigidAxisNominal(OneDofMechanicalModel):
         self.obs_units = (pos, vel)
         self.input_units = (eff,)
 
-    def __repr__(self) -> str:
-        return (f"RigidAxisNominal(params={self.params!r}, dt={self.dt}, "
-                f"channel={self.channel_names[0]!r}, name={self.name!r})")
-
     @property
     def joint_inertia(self) -> float:
         """M (kg, prismatic) or J (kg·m², revolute)."""
         return self.params.mass
-
-    @property
-    def position_units(self) -> tuple[str, ...]:
-        """Unit of q (m or rad)."""
-        return (self.obs_units[0],)
-
-    @property
-    def velocity_units(self) -> tuple[str, ...]:
-        """Unit of dq (m/s or rad/s)."""
-        return (self.obs_units[1],)
 
     def f(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Return the nominal derivative (p/M, u), the 1-DOF case of thesis eq. 2.3 (rows ok)."""
