@@ -188,14 +188,8 @@ def _hat_basis(x: np.ndarray, jump: bool) -> list[tuple[np.ndarray, np.ndarray |
     return out
 
 
-def _off_state(y: np.ndarray, state: np.ndarray, jumps: Sequence[bool] | None = None,
-               linear: np.ndarray | None = None) -> np.ndarray:
-    """``y`` (n, C) minus its least-squares fit on functions of the state (Frisch–Waugh).
-
-    ``linear`` (n, C, k), optional: per channel, k more regressors fitted jointly with the
-    state functions (each channel its own coefficients): both ``y`` and they are cleared of
-    those,
-    then ``y`` of them (Frisch–Waugh, the same least squares as one joint design).
+class _StateNuisance:
+    """Least-squares fits on functions of the state, to clear columns of them (Frisch–Waugh).
 
     The nuisance model is additive in the state variables (each column of ``state``, e.g.
     q1, q2, q̇1, q̇2): a continuous piecewise-linear function of each (:func:`_hat_basis`),
@@ -210,45 +204,64 @@ def _off_state(y: np.ndarray, state: np.ndarray, jumps: Sequence[bool] | None = 
     The design is never formed (issue 17's memory bar): its normal equations are weighted
     co-occurrence sums of the hats (``np.bincount``), solved by least squares on the small
     (P, P) system (minimum norm: the hats of each variable sum to one), and the fit is
-    subtracted by indexing.
+    subtracted by indexing. The Gram matrix depends on the state only: it is built once
+    here and serves every :meth:`clear`.
     """
-    jumps = [False] * state.shape[1] if jumps is None else list(jumps)
-    parts = [b for x, j in zip(state.T, jumps, strict=True) for b in _hat_basis(x, j)]
-    offsets = np.concatenate([[0], np.cumsum([m for _, _, m in parts])])
-    p = int(offsets[-1])
 
-    def terms(k: int):
+    def __init__(self, state: np.ndarray, jumps: Sequence[bool] | None = None) -> None:
+        jumps = [False] * state.shape[1] if jumps is None else list(jumps)
+        self.parts = [b for x, j in zip(state.T, jumps, strict=True) for b in _hat_basis(x, j)]
+        self.offsets = np.concatenate([[0], np.cumsum([m for _, _, m in self.parts])])
+        p = int(self.offsets[-1])
+        self.gram = np.zeros((p, p))
+        for a in range(len(self.parts)):
+            oa, ma = self.offsets[a], self.parts[a][2]
+            for b in range(a, len(self.parts)):
+                ob, mb = self.offsets[b], self.parts[b][2]
+                block = np.zeros((ma, mb))
+                for ia, wa in self._terms(a):
+                    for ib, wb in self._terms(b):
+                        w = wa if wb is None else (wb if wa is None else wa * wb)
+                        block += np.bincount(ia.astype(np.int64) * mb + ib, weights=w,
+                                             minlength=ma * mb).reshape(ma, mb)
+                self.gram[oa:oa + ma, ob:ob + mb] = block
+                self.gram[ob:ob + mb, oa:oa + ma] = block.T
+
+    def _terms(self, k: int) -> list[tuple[np.ndarray, np.ndarray | None]]:
         """(index, weight or None) pairs of part k's nonzero basis values per row."""
-        i, lam, _ = parts[k]
+        i, lam, _ = self.parts[k]
         return [(i, None)] if lam is None else [(i, 1.0 - lam), (i + 1, lam)]
 
-    gram = np.zeros((p, p))
-    rhs = np.zeros((p, y.shape[1]))
-    for a in range(len(parts)):
-        oa, ma = offsets[a], parts[a][2]
-        for ia, wa in terms(a):
-            for c in range(y.shape[1]):
-                rhs[oa:oa + ma, c] += np.bincount(
-                    ia, weights=y[:, c] if wa is None else wa * y[:, c], minlength=ma)
-        for b in range(a, len(parts)):
-            ob, mb = offsets[b], parts[b][2]
-            block = np.zeros((ma, mb))
-            for ia, wa in terms(a):
-                for ib, wb in terms(b):
-                    w = wa if wb is None else (wb if wa is None else wa * wb)
-                    block += np.bincount(ia.astype(np.int64) * mb + ib, weights=w,
-                                         minlength=ma * mb).reshape(ma, mb)
-            gram[oa:oa + ma, ob:ob + mb] = block
-            gram[ob:ob + mb, oa:oa + ma] = block.T
-    coef, *_ = np.linalg.lstsq(gram, rhs, rcond=None)
-    out = y.copy()
-    for k in range(len(parts)):
-        table = coef[offsets[k]:offsets[k + 1]]
-        for i, w in terms(k):
-            out -= table[i] if w is None else w[:, None] * table[i]
+    def clear(self, y: np.ndarray) -> np.ndarray:
+        """``y`` (n, C) minus its least-squares fit on the state functions (a new array)."""
+        rhs = np.zeros((self.gram.shape[0], y.shape[1]))
+        for a in range(len(self.parts)):
+            oa, ma = self.offsets[a], self.parts[a][2]
+            for ia, wa in self._terms(a):
+                for c in range(y.shape[1]):
+                    rhs[oa:oa + ma, c] += np.bincount(
+                        ia, weights=y[:, c] if wa is None else wa * y[:, c], minlength=ma)
+        coef, *_ = np.linalg.lstsq(self.gram, rhs, rcond=None)
+        out = y.copy()
+        for k in range(len(self.parts)):
+            table = coef[self.offsets[k]:self.offsets[k + 1]]
+            for i, w in self._terms(k):
+                out -= table[i] if w is None else w[:, None] * table[i]
+        return out
+
+
+def _off_state(y: np.ndarray, nuisance: _StateNuisance,
+               linear: Sequence[np.ndarray] | None = None) -> np.ndarray:
+    """``y`` (n, C) minus its least-squares fit on functions of the state (Frisch–Waugh).
+
+    ``linear``, optional: per channel c, ``linear[c]`` (n, k) more regressors fitted jointly
+    with the state functions (each channel its own coefficients), *already cleared* of them
+    (``nuisance.clear``): ``y`` is cleared of the state functions, then of those (the same
+    least squares as one joint design).
+    """
+    out = nuisance.clear(y)
     if linear is not None:
-        for c in range(y.shape[1]):
-            x = _off_state(linear[:, c, :], state, jumps)
+        for c, x in enumerate(linear):
             beta, *_ = np.linalg.lstsq(x, out[:, c], rcond=None)
             out[:, c] -= x @ beta
     return out
@@ -628,9 +641,12 @@ class MechanicalSystem:
         jumps = [False] * sig["q"].shape[1] + [True] * sig["dq"].shape[1]   # at q̇ = 0
         del sig
         held -= sampled                                        # r(½) − r(0), in place
-        d = _off_state(held[valid], state, jumps, mass)
-        r0 = _off_state(sampled[valid], state, jumps, mass)
-        del held, sampled, state, mass
+        nuisance = _StateNuisance(state, jumps)
+        if mass is not None:      # each channel's regressors, cleared once for both uses
+            mass = [nuisance.clear(mass[:, c, :]) for c in range(mass.shape[1])]
+        d = _off_state(held[valid], nuisance, mass)
+        r0 = _off_state(sampled[valid], nuisance, mass)
+        del held, sampled, state, mass, nuisance
         lag, g = _lag_test(r0, d)
         if g is None:
             return plan, None
