@@ -620,8 +620,7 @@ def _fit_delay(lin, nl, sig, j, ctx):
     u(t) − u(t − d) of the held input (linear interpolation on the uniform grid).
     """
     u = ctx.held_input[:, j]
-    late = np.interp(ctx.t - nl[0], ctx.t, u)
-    return on_channel((u - late)[sig["idx"]], j, ctx.n_channels)
+    return on_channel((u - _delay_input(nl, ctx.t, u))[sig["idx"]], j, ctx.n_channels)
 
 
 def _delay_input(nl, t, u):
