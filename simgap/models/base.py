@@ -159,6 +159,13 @@ class OneDofMechanicalModel(MechanicalNominalModel):
     :meth:`f`. What follows from J alone is written here once.
     """
 
+    recording_columns = ("t", "q", "dq", "u")
+    #: Recording columns the diagnosis may derive when absent (velocity from position).
+    derivable_columns = ("dq",)
+    obs_names = ("q", "dq")
+    input_names = ("u",)
+    state_names = ("q", "p")
+
     #: What subclasses set in ``__init__`` (read by :meth:`__repr__` and the units below).
     params: Any
     dt: float

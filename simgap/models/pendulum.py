@@ -63,11 +63,6 @@ class PendulumNominal(OneDofMechanicalModel):
         name: model name used in reports.
     """
 
-    recording_columns = ("t", "q", "dq", "u")
-    derivable_columns = ("dq",)
-    obs_names = ("q", "dq")
-    input_names = ("u",)
-    state_names = ("q", "p")
     state_units = ("rad", "kg·m²/s")
     obs_units = ("rad", "rad/s")
     input_units = ("N·m",)

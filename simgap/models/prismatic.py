@@ -65,12 +65,6 @@ class RigidAxisNominal(OneDofMechanicalModel):
         name: model name used in reports.
     """
 
-    recording_columns = ("t", "q", "dq", "u")
-    #: Recording columns the diagnosis may derive when absent (velocity from position).
-    derivable_columns = ("dq",)
-    obs_names = ("q", "dq")
-    input_names = ("u",)
-
     def __init__(self, params: RigidAxisParams, dt: float = 0.001, *, channel: str = "joint1",
                  name: str = "rigid_axis") -> None:
         validate_positive("dt", dt)
@@ -83,7 +77,6 @@ class RigidAxisNominal(OneDofMechanicalModel):
         self.channel_names = (channel,)
         self.name = name
         pos, vel, eff, _, mom = JOINT_UNITS[params.joint]
-        self.state_names = ("q", "p")
         self.state_units = (pos, mom)
         self.obs_units = (pos, vel)
         self.input_units = (eff,)
