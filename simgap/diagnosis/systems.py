@@ -137,6 +137,9 @@ HOLD_ALPHA = 0.01
 #: (N, n, n); blocks keep the transient at a fixed size, ≈ 0.5 MB, the values are the same
 #: per row).
 MASS_BLOCK_ROWS = 1 << 12
+#: Time constants (s) of the lagged steering commands among the vehicle's instruments
+#: (:meth:`BicycleSystem.instruments`), spanning the steering lag's range.
+INSTRUMENT_LAGS = (0.02, 0.05, 0.1, 0.2, 0.4, 1.0)
 #: Effects of the vehicle's vocabulary that another effect needs (its coupling declaration).
 _NEEDED = frozenset(n for e in BICYCLE_EFFECTS for n in e.needs)
 BICYCLE_COLUMNS = AdapterColumns(q=("vy", "r"), u=("delta_f", "delta_r"), vx="vx")
@@ -1053,6 +1056,65 @@ class BicycleSystem:
         g = dx - state_derivative(x, u, self.params, sig["vx"])
         return g @ self.K_inv.T
 
+    @staticmethod
+    def instruments(inputs: np.ndarray, dt: float,
+                    bounds: Sequence[tuple[int, int]] | None) -> np.ndarray:
+        """(N, k) instruments of the inertia terms: functions of the logged inputs only.
+
+        A constant and, per axle whose command varies, the command and its first-order
+        lagged copies of :data:`INSTRUMENT_LAGS` (a linear vehicle's states are linear
+        filters of the command; a steering lag is one), each with its cube (a saturating
+        tire). Nothing read from the recorded states: their filtered noise is in the
+        residual too (through f(x, u) and vx·r), so a state-based instrument would carry it.
+        """
+        cols = [np.ones(inputs.shape[0])]
+        for axle in range(inputs.shape[1]):
+            d = inputs[:, axle]
+            if np.ptp(d) < 1e-6:
+                continue
+            lagged = [d]
+            for tau in INSTRUMENT_LAGS:
+                a = np.exp(-dt / tau)
+                lagged.append(np.concatenate([
+                    lfilter([0.0, 1.0 - a], [1.0, -a], d[lo:hi] - d[lo]) + d[lo]
+                    for lo, hi in bounds or ((0, len(d)),)]))
+            cols += lagged + [x**3 for x in lagged]
+        return np.column_stack(cols)
+
+    def reference_accelerations(self, sig: Mapping[str, np.ndarray], inputs: np.ndarray,
+                                dt: float, rows: np.ndarray,
+                                bounds: Sequence[tuple[int, int]] | None
+                                ) -> dict[str, np.ndarray]:
+        """Lateral and yaw acceleration for the inertia terms' regressors, free of the
+        residual's own noise (errors in variables): two-stage least squares.
+
+        The measured ay = dvy/dt + vx·r and dr/dt carry the derivative noise that is also in
+        the residual dx/dt − f. A regressor read from them is fitted towards shrinking that
+        noise: along the near-symmetry of steady turns (mass and both tire laws scaled
+        together) only the noise is left, and clean circles fitted a mass ratio of
+        0.15-0.28. Here each is replaced by its least-squares projection on
+        :meth:`instruments` (fitted on ``rows``): what of the acceleration the states and
+        inputs explain, which carries no derivative noise; the fit with it is the
+        two-stage least-squares (instrumental-variable) estimate.
+
+        Args:
+            sig: filtered signals (``dvy``, ``dr``, ``vx``, ``r``, slip and wheel angles).
+            inputs: the logged inputs (N, 2), rad.
+            dt: sample step (s).
+            rows: the rows the first stage is fitted on (filter window inside the segment).
+            bounds: segments (rows between gaps); ``None`` = one segment.
+
+        Returns:
+            ``ay_ref`` (m/s²) and ``dr_ref`` (rad/s²), (N,) each.
+        """
+        z = self.instruments(inputs, dt, bounds)
+        scale = np.sqrt(np.mean(z[rows] ** 2, axis=0))
+        z = z / np.where(scale > 0, scale, 1.0)
+        acc = np.column_stack([sig["dvy"] + sig["vx"] * sig["r"], sig["dr"]])
+        beta, *_ = np.linalg.lstsq(z[rows], acc[rows], rcond=None)
+        ref = z @ beta
+        return {"ay_ref": ref[:, 0], "dr_ref": ref[:, 1]}
+
     def prepare(self, rec: Recording) -> Prepared:
         """Filter the recording; Delta = K⁻¹ g (N), its noise floor and the signals."""
         c = self.columns
@@ -1074,6 +1136,9 @@ class BicycleSystem:
         sig = self._signals(raw, sm)
         res = self._residual(sig)
         floor = noise_floor(raw, noise, lambda r: self._residual(self._signals(r, sm)), res)
+        inputs = np.stack([raw[k] for k in c.u], axis=1) * np.asarray(c.u_scale or (1.0, 1.0))
+        sig.update(self.reference_accelerations(sig, inputs, dt,
+                                                np.flatnonzero(sm.valid(len(t))), bounds))
         tire = np.stack([self.stiffness[0] * sig["alpha_f"], self.stiffness[1] * sig["alpha_r"]],
                         axis=1)  # modelled (linear) axle forces, N
         floor = np.hypot(floor, NUMERICAL_FLOOR * np.sqrt(np.mean(tire**2, axis=0)))

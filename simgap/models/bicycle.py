@@ -532,34 +532,22 @@ def _fit_yaw(lin, nl, sig, i, ctx):
     return lin[0] * np.outer(np.ones(sig["vy"].shape[0]), ctx.K_inv[:, 1])
 
 
-def _tire_accelerations(sig, ctx) -> np.ndarray:
-    """(N, 2): lateral and yaw acceleration of the nominal (linear) axle forces, K·F.
+def _fit_mass(lin, nl, sig, i, ctx):
+    """Mass ratio − 1 times the lateral acceleration ay (m/s²), as axle forces (N).
 
-    (Cf·αf + Cr·αr)/m (m/s²) and (lf·Cf·αf − lr·Cr·αr)/Iz (rad/s²), from the filtered states
-    and inputs only: no measured derivative.
+    The fit reads ``ay_ref`` where the form provides it (the measured ay whose own residual
+    part, derivative noise included, is replaced by its neighbours': errors in variables,
+    :meth:`simgap.diagnosis.systems.BicycleSystem.prepare`); a simulation, ``dvy + vx·r``.
     """
-    forces = np.stack([ctx.stiffness[0] * sig["alpha_f"], ctx.stiffness[1] * sig["alpha_r"]],
-                      axis=1)
-    return forces @ np.linalg.inv(ctx.K_inv).T
+    ay = sig["ay_ref"] if "ay_ref" in sig else sig["dvy"] + sig["vx"] * sig["r"]
+    return -lin[0] * np.outer(ay, ctx.K_inv[:, 0])
 
 
-def _fit_inertia(row: int) -> Callable:
-    """Contribution (N per axle) of an inertia ratio in the force form of its equation.
-
-    An inertia (mass for ``row`` 0, yaw inertia for 1) of ρ times the nominal divides the
-    forces of its equation by ρ: the state derivative changes by (1/ρ − 1)·(K·F)[row]. The
-    fit coordinate is θ = 1/ρ − 1 and the regressor is the nominal tire forces' acceleration
-    (:func:`_tire_accelerations`), not the measured one: the measured dvy/dt (or dr/dt) carries
-    the residual's own derivative noise, so a regressor read from it is fitted towards
-    shrinking that noise (errors in variables: on clean steady circles mass and both tire
-    laws scaled together to 0.15-0.28, where this form gives 0.98-0.99 ± 0.02). Exact for
-    an inertia mismatch alone; beside another force effect ΔF it leaves ΔF·(1/ρ − 1) (second
-    order) unmodelled.
-    """
-    def fn(lin, nl, sig, i, ctx):
-        acc = _tire_accelerations(sig, ctx)[:, row]
-        return lin[0] * np.outer(acc, ctx.K_inv[:, row])
-    return fn
+def _fit_yaw_inertia(lin, nl, sig, i, ctx):
+    """Yaw-inertia ratio − 1 times dr/dt (rad/s²), as axle forces (N); ``dr_ref`` as
+    :func:`_fit_mass` reads ``ay_ref``."""
+    dr = sig["dr_ref"] if "dr_ref" in sig else sig["dr"]
+    return -lin[0] * np.outer(dr, ctx.K_inv[:, 1])
 
 
 def _ratio_report(effect, lin, nl, cov, context):
@@ -572,31 +560,14 @@ def _ratio_coords(params, context):
     return (params["ratio"] - 1.0,), ()
 
 
-def _ratio_fit(scope: str, lower: float, upper: float, fn: Any) -> FitSpec:
+def _ratio_fit(scope: str, lower: float, upper: float, fn: Any, *,
+               uses_derivatives: bool = False, symmetric_with: tuple[str, ...] = ()
+               ) -> FitSpec:
     """A ratio fitted as ratio − 1 within [lower, upper] and reported as the ratio."""
     return FitSpec(scope=scope, lin=("ratio_minus_1",), lin_units=("-",), lin_lower=(lower,),
-                   lin_upper=(upper,), fn=fn, to_report=_ratio_report,
-                   from_report=_ratio_coords)
-
-
-def _inverse_ratio_report(effect, lin, nl, cov, context):
-    """Report ratio = 1/(1 + θ), θ = 1/ratio − 1 the force form's coordinate."""
-    scale = 1.0 + lin[0]
-    return ({"ratio": float(1.0 / scale)}, {"ratio": stderr_of(cov, 0) / scale**2},
-            {"ratio": "-"})
-
-
-def _inverse_ratio_coords(params, context):
-    """Fit coordinate of a reported inertia ratio: 1/ratio − 1."""
-    return (1.0 / params["ratio"] - 1.0,), ()
-
-
-def _inertia_fit(row: int) -> FitSpec:
-    """An inertia ratio ρ in [0.5, 2] fitted as 1/ρ − 1 in [−0.5, 1] (:func:`_fit_inertia`)."""
-    return FitSpec(scope="vehicle", lin=("inverse_ratio_minus_1",), lin_units=("-",),
-                   lin_lower=(-0.5,), lin_upper=(1.0,), fn=_fit_inertia(row),
-                   to_report=_inverse_ratio_report, from_report=_inverse_ratio_coords,
-                   symmetric_with=_TIRE_SCALE)
+                   lin_upper=(upper,), uses_derivatives=uses_derivatives, fn=fn,
+                   to_report=_ratio_report, from_report=_ratio_coords,
+                   symmetric_with=symmetric_with)
 
 
 #: Mass, yaw inertia and every tire force scaled by one factor leave the motion unchanged:
@@ -644,12 +615,14 @@ VOCABULARY = (
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.1, 1.25)),),
                write=_scale("m"),
-               fit=_inertia_fit(0)),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_mass, uses_derivatives=True,
+                              symmetric_with=_TIRE_SCALE)),
     EffectSpec(name="yaw_inertia_mismatch", label="yaw inertia mismatch", scope="system",
                params=(Param(name="ratio", unit="-", bounds=(1e-9, math.inf),
                              inject=(1.15, 1.3)),),
                write=_scale("Iz"),
-               fit=_inertia_fit(1)),
+               fit=_ratio_fit("vehicle", -0.5, 1.0, _fit_yaw_inertia, uses_derivatives=True,
+                              symmetric_with=_TIRE_SCALE)),
     EffectSpec(name="steering_lag", label="steering lag", scope="channel", all_channels=True,
                params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
                write=_value("steering_lag", "tau"), needs=("tire_saturation",),
