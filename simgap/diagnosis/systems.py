@@ -1085,20 +1085,21 @@ class BicycleSystem:
                                 dt: float, rows: np.ndarray,
                                 bounds: Sequence[tuple[int, int]] | None
                                 ) -> dict[str, np.ndarray]:
-        """Lateral and yaw acceleration for the inertia terms' regressors, free of the
-        residual's own noise (errors in variables): two-stage least squares.
+        """Accelerations for the inertia terms' regressors, without the residual's noise.
 
-        The measured ay = dvy/dt + vx·r and dr/dt carry the derivative noise that is also in
-        the residual dx/dt − f. A regressor read from them is fitted towards shrinking that
-        noise: along the near-symmetry of steady turns (mass and both tire laws scaled
-        together) only the noise is left, and clean circles fitted a mass ratio of
-        0.15-0.28. Here each is replaced by its least-squares projection on
-        :meth:`instruments` (fitted on ``rows``): what of the acceleration the states and
-        inputs explain, which carries no derivative noise; the fit with it is the
-        two-stage least-squares (instrumental-variable) estimate.
+        Errors in variables: the measured ay = dvy/dt + vx·r and dr/dt carry the derivative
+        noise that is also in the residual dx/dt − f. A regressor read from them is fitted
+        towards shrinking that noise: along the near-symmetry of steady turns (mass and both
+        tire laws scaled together) only the noise is left, and clean circles fitted a mass
+        ratio of 0.15-0.28 with both stiffness ratios beside it. Here each acceleration is
+        replaced by its least-squares projection on :meth:`instruments` (functions of the
+        logged inputs only, fitted on ``rows``): the fit with it is the two-stage
+        least-squares (instrumental-variable) estimate, consistent because the inputs'
+        noise is independent of the residual's. It stays exact beside other force effects
+        (a steering lag, a saturation), which the acceleration itself contains.
 
         Args:
-            sig: filtered signals (``dvy``, ``dr``, ``vx``, ``r``, slip and wheel angles).
+            sig: filtered signals (``dvy``, ``dr``, ``vx``, ``r``).
             inputs: the logged inputs (N, 2), rad.
             dt: sample step (s).
             rows: the rows the first stage is fitted on (filter window inside the segment).

@@ -535,17 +535,20 @@ def _fit_yaw(lin, nl, sig, i, ctx):
 def _fit_mass(lin, nl, sig, i, ctx):
     """Mass ratio − 1 times the lateral acceleration ay (m/s²), as axle forces (N).
 
-    The fit reads ``ay_ref`` where the form provides it (the measured ay whose own residual
-    part, derivative noise included, is replaced by its neighbours': errors in variables,
-    :meth:`simgap.diagnosis.systems.BicycleSystem.prepare`); a simulation, ``dvy + vx·r``.
+    The fit reads ``ay_ref`` where the form provides it (the measured ay projected on
+    instruments that carry none of the residual's derivative noise: errors in variables,
+    :meth:`simgap.diagnosis.systems.BicycleSystem.reference_accelerations`); a simulation,
+    ``dvy + vx·r``.
     """
     ay = sig["ay_ref"] if "ay_ref" in sig else sig["dvy"] + sig["vx"] * sig["r"]
     return -lin[0] * np.outer(ay, ctx.K_inv[:, 0])
 
 
 def _fit_yaw_inertia(lin, nl, sig, i, ctx):
-    """Yaw-inertia ratio − 1 times dr/dt (rad/s²), as axle forces (N); ``dr_ref`` as
-    :func:`_fit_mass` reads ``ay_ref``."""
+    """Yaw-inertia ratio − 1 times dr/dt (rad/s²), as axle forces (N).
+
+    ``dr_ref`` where the form provides it, as :func:`_fit_mass` reads ``ay_ref``.
+    """
     dr = sig["dr_ref"] if "dr_ref" in sig else sig["dr"]
     return -lin[0] * np.outer(dr, ctx.K_inv[:, 1])
 
