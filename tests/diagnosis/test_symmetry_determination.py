@@ -53,25 +53,22 @@ def _columns(steady: bool, ratio: float = 1.15, n: int = 4000, seed: int = 0):
 def test_mass_inertia_and_both_tire_laws_scaled_together_are_an_exact_symmetry():
     j, _, _ = _columns(steady=False)
     ratio = 1.15
-    # the inertias are fitted as 1/ratio − 1 on the tire forces' accelerations (K·F) and the
-    # stiffnesses as ratio − 1 on the forces F: K⁻¹·K·F = F, so the direction (1, −1, −1, 1)
-    # of the fit's linear coordinates (all four scaled by 1 + ε, to first order) moves nothing
-    assert np.linalg.norm(j @ np.array([1.0, -1.0, -1.0, 1.0])) < 1e-9 * np.linalg.norm(j)
-    det = determination(j, NAMES, ["mass"], [1.0 / ratio - 1.0, 0.0, 0.0, 0.0])
+    # the direction (ratio, 1, 1, 1) in the fit's linear ratio coordinates moves nothing
+    assert np.linalg.norm(j @ np.array([ratio, 1.0, 1.0, 1.0])) < 1e-9 * np.linalg.norm(j)
+    det = determination(j, NAMES, ["mass"], [ratio - 1.0, 0.0, 0.0, 0.0])
     assert det.retained[0] < REL_TOL**2
     assert not det.determined(3.0)
 
 
 def test_with_the_yaw_inertia_held_the_mass_ratio_is_determined_by_yaw_acceleration():
     j, sig, _ = _columns(steady=False)
-    det = determination(j[:, :3], NAMES[:3], ["mass"], [1 / 1.15 - 1, 0.0, 0.0],
-                        noise_std=1.0)
+    det = determination(j[:, :3], NAMES[:3], ["mass"], [0.15, 0.0, 0.0], noise_std=1.0)
     assert det.retained[0] > 0.01
     # what freeing the partners leaves of the mass column is what they leave of the yaw
-    # inertia regressor (the tire forces' yaw acceleration), with the opposite sign
+    # inertia regressor (Iz·dr/dt), scaled by −1/ratio
     def left(col):
         return col - j[:, 1:3] @ np.linalg.lstsq(j[:, 1:3], col, rcond=None)[0]
-    np.testing.assert_allclose(left(j[:, 0]), -left(j[:, 3]),
+    np.testing.assert_allclose(left(j[:, 0]), -left(j[:, 3]) / 1.15,
                                atol=1e-9 * np.abs(left(j[:, 0])).max())
     assert np.std(sig["dr"]) > 0
 
@@ -79,8 +76,7 @@ def test_with_the_yaw_inertia_held_the_mass_ratio_is_determined_by_yaw_accelerat
 def test_on_steady_turns_the_mass_ratio_is_not_determined():
     j, sig, _ = _columns(steady=True)
     assert np.abs(sig["dr"]).max() < 1e-9
-    det = determination(j[:, :3], NAMES[:3], ["mass"], [1 / 1.15 - 1, 0.0, 0.0],
-                        noise_std=1.0)
+    det = determination(j[:, :3], NAMES[:3], ["mass"], [0.15, 0.0, 0.0], noise_std=1.0)
     assert det.retained[0] < REL_TOL**2
     assert not det.determined(3.0)
 
