@@ -52,9 +52,9 @@ def _scale_fit(seed: int, measured: bool) -> tuple[float, float]:
     cols += [_fit("cornering_stiffness").fn(one, (), sig, i, ctx) for i in (0, 1)]
     x = np.column_stack([(c * w)[ok].ravel() for c in cols])
     y = (p.residual * w)[ok].ravel()
-    theta, *_ = np.linalg.lstsq(x, y, rcond=None)
-    s2 = np.sum((y - x @ theta) ** 2) / (len(y) - 3)
-    return 1.0 + float(theta[0]), float(np.sqrt(s2 * np.linalg.inv(x.T @ x)[0, 0]))
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    s2 = np.sum((y - x @ coef) ** 2) / (len(y) - 3)
+    return 1.0 + float(coef[0]), float(np.sqrt(s2 * np.linalg.inv(x.T @ x)[0, 0]))
 
 
 @pytest.mark.parametrize("seed", [0, 1])
