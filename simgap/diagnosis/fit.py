@@ -307,9 +307,17 @@ class Fitter:
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
-        rows = validation.usable_rows(self.n, prepared.smoother.window, self.mask, seg)
+        window = prepared.smoother.window
+        rows = validation.usable_rows(self.n, window, self.mask, seg)
         self.split = validation.split_rows(prepared.t, rows, seg, train_fraction,
                                            regions=self._region_variables(system, prepared))
+        refine = validation.refinement(len(rows))
+        if refine > 1:   # few half-window rows: each read as up to MAX_REFINE finer rows
+            step = max(1, window // 2)
+            fine = validation.usable_rows(self.n, window, self.mask, seg,
+                                          step=max(1, step // refine))
+            self.split = validation.refine(self.split, rows, fine, step)
+            rows = np.union1d(np.union1d(self.split.fit, self.split.test), self.split.guard)
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
         #: the usable rows, increasing: every row set the fits read (training, validation,
@@ -706,10 +714,12 @@ class Fitter:
 
     @staticmethod
     def hypotheses(remaining: Sequence[Term]) -> list[tuple[Term, ...]]:
-        """Every remaining term alone, plus each :data:`FAMILIES` remaining at one channel.
+        """Every remaining term alone, plus joint hypotheses of terms at one channel.
 
-        A family's members are fitted together: they may only make sense jointly, e.g. a
-        nominal damping that is too high beside a missing Coulomb friction.
+        Each :data:`FAMILIES` remaining at a channel, and each term with each of its declared
+        look-alikes there (``FitSpec.confusable_with``), are fitted together: they may only
+        make sense jointly, e.g. a nominal damping that is too high beside a missing
+        Coulomb friction, or a dead zone beside a Coulomb friction at the same joint.
         """
         hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
         by_key = {t.key: t for t in remaining}
@@ -728,6 +738,18 @@ class Fitter:
                 members = [by_key.get((name, idx)) for name in fam]
                 if all(m is not None for m in members):
                     hyps.append(tuple(members))
+        # an effect and each declared look-alike at its channel (``confusable_with``: a dead
+        # zone and a Coulomb friction) are also tried together: where both act, each alone
+        # leaves the other's structure error in the floor of its test (slow, few effective
+        # samples) and neither passes, though together they explain the residual
+        seen: set[frozenset] = set()
+        for t in remaining:
+            for name in t.effect.confusable_with:
+                other = by_key.get((name, t.index))
+                pair = frozenset((t.key, (name, t.index)))
+                if other is not None and other.key != t.key and pair not in seen:
+                    seen.add(pair)
+                    hyps.append((t, other))
         return hyps
 
     # -- selection ---------------------------------------------------------------------
