@@ -2,7 +2,9 @@
 
 Every vocabulary effect at every channel is a hypothesis (a :class:`Term`). The residual is
 whitened per channel by its noise floor and thinned to every ``window // 2``-th sample (the
-Savitzky–Golay filter correlates neighbouring samples). The rows are split by
+Savitzky–Golay filter correlates neighbouring samples; where that leaves few rows, each is
+read as up to four finer rows inside its block, :func:`.validation.refinement`). The rows
+are split by
 :mod:`.validation`: usable rows only, cut into contiguous blocks (never across a gap) that
 are assigned by operating region (direction × amplitude of the direction variables,
 :meth:`Fitter._region_variables`), so that training, validation and the outer held-out part

@@ -8,7 +8,9 @@ operating region:
 
 * rows are the residual grid thinned to every ``window // 2``-th sample (the smoothing
   filter correlates neighbours), away from the recording's ends and from gaps by one filter
-  window, and kept only where at least one channel is unmasked;
+  window, and kept only where at least one channel is unmasked; where these are few (a long
+  window), the split is made on them and each is then read as up to :data:`MAX_REFINE`
+  finer rows in its own part and block (:func:`refinement`, :func:`refine`);
 * these rows are cut into contiguous blocks that never straddle a gap (:data:`BLOCKS` of
   the rows before the tail, at least :data:`MIN_BLOCK_ROWS` rows, i.e. 2.5 filter windows);
   each block gets an **operating region** (:func:`block_regions`: the sign of each
