@@ -821,6 +821,13 @@ class Fitter:
                         f"significant look-alike {'+'.join(t.label for t in trials[alt][0])} "
                         "was picked instead")
                     pick, hyp, fit, blocked = alt, trials[alt][0], alt_fit, {}
+            for i in ok:
+                if i != pick:
+                    evals[i]["reason"] = (
+                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
+                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
+                        "round (a larger gain, or as large with fewer parameters)"
+                        + evals[i].get("_nested", ""))
             if blocked:
                 # not identifiable as such on this data: fitted (the identifiable combination
                 # it carries is part of the model, so that no other term stands in for it)
@@ -847,13 +854,6 @@ class Fitter:
                 done = {t.key for t in hyp}
                 remaining = [t for t in remaining if t.key not in done]
                 continue
-            for i in ok:
-                if i != pick:
-                    evals[i]["reason"] = (
-                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
-                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
-                        "round (a larger gain, or as large with fewer parameters)"
-                        + evals[i].get("_nested", ""))
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")

@@ -145,6 +145,27 @@ def test_dead_zone_and_coulomb_at_one_joint_are_both_named(seed):
     assert _error(rep, dz) < 0.05 and _error(rep, fc) < 0.05
 
 
+# ---------------------------------------------------------------- combinations are a mismatch
+def test_a_mismatch_fitted_as_a_combination_is_not_called_no_mismatch():
+    """A quantised dead zone the command cannot tell from a relay (dwell χ² 2.1) removes
+    44 % of the validation error (p = 1e-44) and is fitted as a combination, not named.
+    Before: "No mismatch beyond the noise" (its fit explained the residual the mismatch
+    test reads), and the significant pairs of that round read "not significant (p = 2e-43
+    ≥ 0.00043)". Now the mismatch is located at joint 2 and the pairs say they were
+    significant."""
+    inj = draw("dead_zone", np.random.default_rng(1002))
+    rep = diagnose(_case([inj], "quantised_encoder", 2), "manipulator2dof")
+    (dz,) = [e for e in rep.data["tried"] if e["effect"] == "dead_zone"
+             and e["channel"] == "joint2"]
+    assert dz["decision"] == "not identifiable", dz
+    assert rep.significant
+    assert rep.data["verdict"].startswith("Mismatch at joint 2"), rep.data["verdict"]
+    assert not rep.effects
+    for e in rep.data["tried"]:
+        if e.get("p_value") is not None and e["p_value"] < 1e-10:
+            assert "not significant" not in e["reason"], e
+
+
 # ---------------------------------------------------------------- the long variants
 def _stribeck_fs(rec: Recording, channel: str) -> float:
     system = MechanicalSystem(ManipulatorNominal())
