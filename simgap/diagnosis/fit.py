@@ -2,7 +2,9 @@
 
 Every vocabulary effect at every channel is a hypothesis (a :class:`Term`). The residual is
 whitened per channel by its noise floor and thinned to every ``window // 2``-th sample (the
-Savitzky–Golay filter correlates neighbouring samples). The rows are split by
+Savitzky–Golay filter correlates neighbouring samples; where that leaves few rows, each is
+read as up to four finer rows inside its block, :func:`.validation.refinement`). The rows
+are split by
 :mod:`.validation`: usable rows only, cut into contiguous blocks (never across a gap) that
 are assigned by operating region (direction × amplitude of the direction variables,
 :meth:`Fitter._region_variables`), so that training, validation and the outer held-out part
@@ -307,9 +309,17 @@ class Fitter:
         self.r = residual * self.mask
         self.w = 1.0 / np.maximum(noise, 1e-12)
         seg = None if segments is None else np.asarray(segments)
-        rows = validation.usable_rows(self.n, prepared.smoother.window, self.mask, seg)
+        window = prepared.smoother.window
+        rows = validation.usable_rows(self.n, window, self.mask, seg)
         self.split = validation.split_rows(prepared.t, rows, seg, train_fraction,
                                            regions=self._region_variables(system, prepared))
+        refine = validation.refinement(len(rows))
+        if refine > 1:   # few half-window rows: each read as up to MAX_REFINE finer rows
+            step = max(1, window // 2)
+            fine = validation.usable_rows(self.n, window, self.mask, seg,
+                                          step=max(1, step // refine))
+            self.split = validation.refine(self.split, rows, fine, step)
+            rows = np.union1d(np.union1d(self.split.fit, self.split.test), self.split.guard)
         self.train, self.valid = self.split.train, self.split.valid
         self.fit_rows, self.test = self.split.fit, self.split.test
         #: the usable rows, increasing: every row set the fits read (training, validation,
@@ -706,10 +716,12 @@ class Fitter:
 
     @staticmethod
     def hypotheses(remaining: Sequence[Term]) -> list[tuple[Term, ...]]:
-        """Every remaining term alone, plus each :data:`FAMILIES` remaining at one channel.
+        """Every remaining term alone, plus joint hypotheses of terms at one channel.
 
-        A family's members are fitted together: they may only make sense jointly, e.g. a
-        nominal damping that is too high beside a missing Coulomb friction.
+        Each :data:`FAMILIES` remaining at a channel, and each term with each of its declared
+        look-alikes there (``FitSpec.confusable_with``), are fitted together: they may only
+        make sense jointly, e.g. a nominal damping that is too high beside a missing
+        Coulomb friction, or a dead zone beside a Coulomb friction at the same joint.
         """
         hyps: list[tuple[Term, ...]] = [(t,) for t in remaining]
         by_key = {t.key: t for t in remaining}
@@ -728,6 +740,18 @@ class Fitter:
                 members = [by_key.get((name, idx)) for name in fam]
                 if all(m is not None for m in members):
                     hyps.append(tuple(members))
+        # an effect and each declared look-alike at its channel (``confusable_with``: a dead
+        # zone and a Coulomb friction) are also tried together: where both act, each alone
+        # leaves the other's structure error in the floor of its test (slow, few effective
+        # samples) and neither passes, though together they explain the residual
+        seen: set[frozenset] = set()
+        for t in remaining:
+            for name in t.effect.confusable_with:
+                other = by_key.get((name, t.index))
+                pair = frozenset((t.key, (name, t.index)))
+                if other is not None and other.key != t.key and pair not in seen:
+                    seen.add(pair)
+                    hyps.append((t, other))
         return hyps
 
     # -- selection ---------------------------------------------------------------------
@@ -797,6 +821,13 @@ class Fitter:
                         f"significant look-alike {'+'.join(t.label for t in trials[alt][0])} "
                         "was picked instead")
                     pick, hyp, fit, blocked = alt, trials[alt][0], alt_fit, {}
+            for i in ok:
+                if i != pick:
+                    evals[i]["reason"] = (
+                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
+                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
+                        "round (a larger gain, or as large with fewer parameters)"
+                        + evals[i].get("_nested", ""))
             if blocked:
                 # not identifiable as such on this data: fitted (the identifiable combination
                 # it carries is part of the model, so that no other term stands in for it)
@@ -823,13 +854,6 @@ class Fitter:
                 done = {t.key for t in hyp}
                 remaining = [t for t in remaining if t.key not in done]
                 continue
-            for i in ok:
-                if i != pick:
-                    evals[i]["reason"] = (
-                        f"significant (p = {evals[i]['p_value']:.2g} < {alpha:.2g}) but "
-                        f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
-                        "round (a larger gain, or as large with fewer parameters)"
-                        + evals[i].get("_nested", ""))
             e = evals[pick]
             e.update(decision="named", reason=f"significant held-out gain (p = "
                                               f"{e['p_value']:.2g} < {alpha:.2g})")

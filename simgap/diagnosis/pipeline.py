@@ -475,9 +475,17 @@ def _run(rec: Recording, system: Any, horizon: float | None,
                     and (e["effect"], e["channel"]) not in
                     {(k[0], system.channels[k[1]] if k[1] is not None else None)
                      for k in fitter.combinations}]
-    mismatch = bool(entries) or bool(undetermined) or any(
+    # terms kept in the fit as a combination the data do not identify (fit.py, e.g. a dead
+    # zone the command cannot tell from a relay): their significant gain is a mismatch too,
+    # which their fit then explains (the residual after it would otherwise say "no mismatch")
+    combined = [e for e in sel.tried if e.get("decision") == "not identifiable"
+                and e.get("p_value") is not None and e["p_value"] < ALPHA
+                and (e["effect"], e["channel"]) in
+                {(k[0], system.channels[k[1]] if k[1] is not None else None)
+                 for k in fitter.combinations}]
+    mismatch = bool(entries) or bool(undetermined) or bool(combined) or any(
         s.significant and g.significant(level) for s, g in zip(stats, structure, strict=True))
-    hit_channels = {e["channel"] for e in undetermined}
+    hit_channels = {e["channel"] for e in undetermined + combined}
     stats = [dataclasses.replace(s, significant=(s.significant and mismatch)
                                  or s.channel in hit_channels) for s in stats]
     sig_idx = [i for i, s in enumerate(stats) if s.significant] or list(range(fitter.c))
@@ -546,7 +554,8 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "tried": [_jsonable(e) for e in sel.tried],
         "identifiability": sel.identifiability,
         "verdict": verdict(entries, stats, system, unexplained if base > 0 and any(
-            e["testable_held_out"] for e in entries) else None, bool(undetermined)),
+            e["testable_held_out"] for e in entries) else None,
+            bool(undetermined or combined)),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
