@@ -8,7 +8,16 @@ and reported as medians over ``--repeats``:
   bare and with :class:`~simgap.wrappers.VectorIdentifierWrapper` (integral law);
 * single-env steps/s of the bare env class (as ``bench_envs.py``);
 * in fresh processes (warm numba cache): ``import simgap``, the first ``gym.make``, its
-  ``reset`` and the first ``step``.
+  ``reset`` and the first ``step``;
+* with ``--filed TREE`` (a checkout of the commit issue 17 was filed against, main before
+  the native env's merge f6e2d0d, i.e. ``git worktree add --detach /tmp/old17 e48587a``
+  with the ``_call`` extension built in place): the sync vector env **as filed**
+  (``sync_filed_bare``), timed by a persistent worker process that imports that checkout
+  (``benchmarks/_vector_worker.py``, ``PYTHONPATH=TREE``, same interpreter unless
+  ``--filed-python``; numba caches are the checkout's own), in the same interleaved
+  repeats, with ``ratio_native_over_sync_filed_bare``. ``ratio_native_over_sync_bare`` is
+  against today's sync env, which the fused single-env kernel of the same issue made
+  faster.
 
 Rates are given per wall second and per CPU second of this process (``*_cpu``: the one-core
 rate when the machine is shared); ratios (native/sync, wrapped/bare) come from the same
@@ -21,7 +30,7 @@ diagnosed in a fresh process; peak RSS above the RSS before, per sample), at the
 
     .venv/bin/python benchmarks/bench_vector.py [--ns 1,16,256,1024] [--repeats 5] \
         [--budget 0.4] [--fresh 5] [--diag-durations 60,3600] \
-        [--out benchmarks/results/bench_vector.json]
+        [--filed /tmp/old17] [--out benchmarks/results/bench_vector.json]
 """
 
 from __future__ import annotations
@@ -32,11 +41,11 @@ import os
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from _vector_worker import rate as _rate
 
 import simgap
 from simgap.wrappers import VectorIdentifierWrapper
@@ -76,24 +85,46 @@ def _make(env_id: str, n: int, mode: str, wrapped: bool):
     return VectorIdentifierWrapper(env) if wrapped else env
 
 
-def _rate(env, n: int, budget: float) -> tuple[float, float]:
-    """(env-steps per wall s, per CPU s) of ``env.step`` with zero actions for ~budget s."""
-    a = np.zeros(env.action_space.shape, dtype=np.float32)
-    env.step(a)  # warm-up (compilation, first-call costs)
-    steps = 0
-    w0, c0 = time.perf_counter(), time.process_time()
-    while True:
-        for _ in range(4):
-            env.step(a)
-        steps += 4
-        wall = time.perf_counter() - w0
-        if wall >= budget:
-            break
-    cpu = time.process_time() - c0
-    return steps * n / wall, steps * n / max(cpu, 1e-9)
+class _Filed:
+    """The sync vector env of another checkout, timed in a persistent worker process.
+
+    Args:
+        tree: the checkout (put first on the worker's ``PYTHONPATH``; its working directory).
+        python: the interpreter to run the worker with.
+    """
+
+    def __init__(self, tree: Path, python: str) -> None:
+        env = dict(os.environ, PYTHONPATH=str(tree), PYTHONDONTWRITEBYTECODE="1")
+        self.proc = subprocess.Popen([python, str(ROOT / "benchmarks" / "_vector_worker.py")],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                     env=env, cwd=tree)
+        self.simgap_file = self._ask("where")
+        if not Path(self.simgap_file).resolve().is_relative_to(tree.resolve()):
+            raise SystemExit(f"the filed worker imported {self.simgap_file}, not {tree}")
+
+    def _ask(self, line: str) -> str:
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+        answer = self.proc.stdout.readline()
+        if not answer:
+            raise SystemExit(f"the filed worker died (exit {self.proc.wait()})")
+        return answer.strip()
+
+    def rate(self, env_id: str, n: int, budget: float) -> tuple[float, float]:
+        """(env-steps per wall s, per CPU s of the worker) of the checkout's sync env."""
+        wall, cpu = self._ask(f"time {env_id} sync {n} {budget!r}").split()
+        return float(wall), float(cpu)
+
+    def close_envs(self) -> None:
+        self._ask("close")
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait()
 
 
-def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int) -> dict:
+def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int,
+            filed: _Filed | None = None) -> dict:
     variants = [("native", False), ("native", True), ("sync", False), ("sync", True)]
     out: dict = {}
     for name, env_id in ENVS.items():
@@ -110,9 +141,15 @@ def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int) -> dict
                 e.reset(seed=0)
                 envs[(mode, wrapped)] = e
             samples: dict = {k: [] for k in envs}
+            with_filed = filed is not None and n <= sync_max_n
+            if with_filed:
+                samples[("sync_filed", False)] = []
+                filed.rate(env_id, n, min(budget, 0.05))  # untimed: make, compile, warm
             for _ in range(repeats):  # interleaved: each variant once per repeat
                 for key, e in envs.items():
                     samples[key].append(_rate(e, n, budget))
+                if with_filed:
+                    samples[("sync_filed", False)].append(filed.rate(env_id, n, budget))
             row = {}
             for (mode, wrapped), s in samples.items():
                 tag = f"{mode}_{'wrapped' if wrapped else 'bare'}"
@@ -125,12 +162,21 @@ def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int) -> dict
                 row["ratio_native_over_sync_wrapped"] = statistics.median(
                     a[1] / b[1] for a, b in zip(samples[("native", True)],
                                                  samples[("sync", True)], strict=True))
+            if with_filed:
+                row["ratio_native_over_sync_filed_bare"] = statistics.median(
+                    a[1] / b[1] for a, b in zip(samples[("native", False)],
+                                                 samples[("sync_filed", False)], strict=True))
+                row["ratio_sync_over_sync_filed_bare"] = statistics.median(
+                    a[1] / b[1] for a, b in zip(samples[("sync", False)],
+                                                 samples[("sync_filed", False)], strict=True))
             row["ratio_wrapped_over_bare_native"] = statistics.median(
                 a[1] / b[1] for a, b in zip(samples[("native", True)],
                                              samples[("native", False)], strict=True))
             rows[str(n)] = row
             for e in envs.values():
                 e.close()
+            if with_filed:
+                filed.close_envs()
             print(f"{name} N={n}: " + ", ".join(f"{k} {v:,.0f}" for k, v in row.items()
                                                  if not k.startswith("ratio")),
                   file=sys.stderr)
@@ -239,6 +285,10 @@ def _verdict(res: dict) -> dict:
             q = r["ratio_native_over_sync_bare"]
             v[name]["ratio_at_256"] = {"measured": q, "target": t["ratio_at_256"],
                                        "met": q >= t["ratio_at_256"]}
+        if "ratio_native_over_sync_filed_bare" in r:  # the bar against the env as filed
+            q = r["ratio_native_over_sync_filed_bare"]
+            v[name]["ratio_at_256_vs_filed"] = {"measured": q, "target": t["ratio_at_256"],
+                                                "met": q >= t["ratio_at_256"]}
         w = r["ratio_wrapped_over_bare_native"]
         v[name]["wrapped_over_bare_at_256"] = {"measured": w,
                                                "target": TARGETS["wrapped_over_bare"],
@@ -274,12 +324,30 @@ def main() -> None:
     ap.add_argument("--fresh", type=int, default=5, help="fresh processes (0: skip)")
     ap.add_argument("--diag-durations", default="60,3600",
                     help="diagnosis lengths in s for the memory per sample ('' skips)")
+    ap.add_argument("--filed", type=Path, default=None,
+                    help="checkout of the filing commit: also time its sync env (sync_filed)")
+    ap.add_argument("--filed-python", default=sys.executable,
+                    help="interpreter for the --filed worker (default: this one)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     ns = [int(n) for n in args.ns.split(",")]
     res: dict = {"cpus": os.cpu_count(), "repeats": args.repeats, "budget_s": args.budget,
                  "load_before": os.getloadavg()}
-    res["vector"] = _vector(ns, args.repeats, args.budget, args.sync_max_n)
+    filed = _Filed(args.filed, args.filed_python) if args.filed is not None else None
+    if filed is not None:
+        head = subprocess.run(["git", "-C", str(args.filed), "rev-parse", "HEAD"],
+                              capture_output=True, text=True)
+        res["filed"] = {"tree": str(args.filed), "commit": head.stdout.strip() or None,
+                        "simgap_imported_from": filed.simgap_file,
+                        "python": args.filed_python,
+                        "how": "persistent worker process (benchmarks/_vector_worker.py) "
+                               "importing the checkout, interleaved with this process's "
+                               "variants in every repeat; ratios per repeat on CPU rates"}
+    try:
+        res["vector"] = _vector(ns, args.repeats, args.budget, args.sync_max_n, filed)
+    finally:
+        if filed is not None:
+            filed.close()
     res["single"] = _single(args.repeats, args.budget)
     res["fresh"] = _fresh(args.fresh) if args.fresh > 0 else {}
     res["load_after"] = os.getloadavg()

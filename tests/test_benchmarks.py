@@ -98,3 +98,17 @@ def test_bench_vector_quick(tmp_path):
     fresh = res["fresh"]["manipulator"]
     assert all(fresh[k] > 0 for k in ("import_s", "make_s", "reset_s", "first_step_s"))
     assert set(res["verdict"]) >= {"single_arm_bare_cpu", "first_step_arm", "import_simgap"}
+
+
+def test_bench_vector_filed_worker_quick():
+    # The filed-baseline path, with this checkout standing in for the filing commit's (the
+    # real run points --filed at a checkout of it): the worker process times its sync env in
+    # the same repeats and the ratios to it are recorded.
+    res = _run("bench_vector.py", "--ns", "2", "--repeats", "2", "--budget", "0.01",
+               "--fresh", "0", "--diag-durations", "", "--filed", str(ROOT))
+    assert Path(res["filed"]["simgap_imported_from"]).resolve().is_relative_to(ROOT)
+    for system in ("manipulator", "bicycle"):
+        row = res["vector"][system]["2"]
+        assert row["sync_filed_bare"] > 0 and row["sync_filed_bare_cpu"] > 0
+        assert row["ratio_native_over_sync_filed_bare"] > 0
+        assert row["ratio_sync_over_sync_filed_bare"] > 0

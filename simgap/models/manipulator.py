@@ -378,11 +378,23 @@ def plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub):  # pragma: no cover -
     :func:`~simgap.models.integrators.rk4_stage` / ``rk4_combine``), so bit-identical to it,
     without an array per stage (a test pins the equality).
     """
+    a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+    return _rk4_from(q1, q2, dq1, dq2, a1, a2, u1, u2, theta, dt, n_sub)
+
+
+@njit(cache=True, inline="always")
+def _rk4_from(q1, q2, dq1, dq2, a1, a2, u1, u2, theta, dt, n_sub):  # pragma: no cover
+    """:func:`plant_rk4` given the acceleration (a1, a2) at the start state (rad/s²).
+
+    The first stage of the first sub-step reuses it (:func:`transition_entries` has it
+    from the true residual), so the step evaluates the plant once less; same bits.
+    """
     h = dt / n_sub
     half = 0.5 * h
     h6 = h / 6.0
-    for _ in range(n_sub):
-        a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+    for j in range(n_sub):
+        if j > 0:
+            a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
         t0, t1, t2, t3 = _stage(q1, q2, dq1, dq2, half, dq1, dq2, a1, a2)
         b1, b2 = _plant_acc(t0, t1, t2, t3, u1, u2, theta)
         v0, v1, v2, v3 = _stage(q1, q2, dq1, dq2, half, t2, t3, b1, b2)
@@ -408,6 +420,12 @@ def plant_step(s, u, theta, dt, n_sub):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _true_residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom):  # pragma: no cover
     a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+    return _residual_from_acc(q1, q2, dq1, dq2, u1, u2, a1, a2, la_nom)
+
+
+@njit(cache=True, inline="always")
+def _residual_from_acc(q1, q2, dq1, dq2, u1, u2, a1, a2, la_nom):  # pragma: no cover
+    """g[2:] at s = (q, dq), u given the plant's acceleration (a1, a2) there (rad/s²)."""
     m11, m12, m22 = _mass_entries(q2, la_nom)
     c11, c12, c21 = _coriolis_entries(q2, dq1, dq2, la_nom)
     g1, g2 = _gravity_entries(q1, q2, la_nom)
@@ -439,10 +457,13 @@ def transition_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom, dt,
                        n_sub):  # pragma: no cover - compiled
     """One env transition on scalars: (next state (4), g[2:] (2), tau_d (2)) at s_k, u_k.
 
-    The single env's :func:`transition` and the native vector env share it.
+    The single env's :func:`transition` and the native vector env share it. The plant's
+    acceleration at s_k is evaluated once, for the residual and the first RK4 stage.
     """
-    g3, g4, tau1, tau2 = residual_entries(q1, q2, dq1, dq2, u1, u2, theta, la_nom)
-    n1, n2, n3, n4 = plant_rk4(q1, q2, dq1, dq2, u1, u2, theta, dt, n_sub)
+    a1, a2 = _plant_acc(q1, q2, dq1, dq2, u1, u2, theta)
+    g3, g4 = _residual_from_acc(q1, q2, dq1, dq2, u1, u2, a1, a2, la_nom)
+    tau1, tau2 = _tau_d_joint(0, q1, dq1, theta), _tau_d_joint(1, q2, dq2, theta)
+    n1, n2, n3, n4 = _rk4_from(q1, q2, dq1, dq2, a1, a2, u1, u2, theta, dt, n_sub)
     return n1, n2, n3, n4, g3, g4, tau1, tau2
 
 
