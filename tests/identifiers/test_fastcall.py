@@ -70,7 +70,7 @@ def test_the_c_step_survives_copies_and_is_collected():
     twins = [copy.deepcopy(ident), pickle.loads(pickle.dumps(ident)), copy.deepcopy(ident)]
     for twin in twins:
         assert twin.step is twin._hot and twin.step is not ident.step
-    for k, (x, u, f, xn) in enumerate(stream[200:]):
+    for x, u, f, xn in stream[200:]:
         g = ident.step(x, u, f, xn)
         assert np.any(g != 0.0)
         for twin in twins[:2]:
