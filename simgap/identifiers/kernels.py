@@ -82,9 +82,9 @@ from simgap.identifiers.scales import (
     normalise_inputs,
     scale_beta,
     scale_outputs,
+    stored_whiteness,
     update_scales,
     update_whiteness,
-    whiteness,
 )
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
@@ -277,7 +277,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     ons = scale_block(n, m, h)
     adc = R[HP_ADC]
     if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
-        wg = whiteness(R, ons, p)
+        wg = stored_whiteness(R, ons, p)
         a_d = gated(a_d, adc, wg)
         eta1 = gated(eta1, R[HP_ETA1C], wg)
         eta2 = gated(eta2, R[HP_ETA2C], wg)
