@@ -62,14 +62,13 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     bound_error2,
-    column_norms2,
     dot,
-    jacobian_norm2,
     normalised_rates,
     observer_delta,
     observer_error,
     scratch_size,
     unified_update,
+    weight_jacobian_norm2,
     z_filter_step,
 )
 from simgap.identifiers.minibatch import DUE, FILLED, buffer_push, sgd_step
@@ -334,10 +333,9 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         xx = dot(T, txn, T, txn, p)
         dd = dot(T, td, T, td, n)
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
-            column_norms2(R, ow, n, h, T, tsc + h)  # unified_update's scratch: b only
             k1, k2 = normalised_rates(k1, k2, ss, xx,
                                       bound_error2(mode, dd, T, txt, n, inv / (a_d * R[HP_LAM])),
-                                      jacobian_norm2(T, tsc + h, ts, h), ce)
+                                      weight_jacobian_norm2(R, ow, n, h, T, ts), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
                               l1, l2, R[HP_MAXN], HP_NORM2, tsc, ss, xx, dd):
             return STATUS_DIVERGED

@@ -174,6 +174,29 @@ def jacobian_norm2(T, oc, os, h):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def weight_jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
+    """‖Ŵ D‖_F² straight from Ŵ at ``R[ow:]`` and σ at ``T[os:]``, for one sample.
+
+    The same sums in the same order as :func:`column_norms2` then :func:`jacobian_norm2`
+    (bit for bit), with each column norm c_j kept in a register: the per-step observer laws
+    need ‖Ŵ D‖² once per step, and accumulating the column norms in ``T`` made each row of Ŵ
+    wait for the previous row's store (``T`` and ``R`` may be one array; measured ≈ 4 % of
+    an ``auto`` step). Baseline 2, whose Ŵ is fixed over a mini-batch, takes the column
+    norms once and :func:`jacobian_norm2` per sample.
+    """
+    acc = 0.0
+    for j in range(h):
+        c = 0.0
+        for r in range(n):
+            w = R[_ix(ow + r * h + j)]
+            c += w * w
+        sj = T[_ix(os + j)]
+        d = 1.0 - sj * sj
+        acc += d * d * c
+    return acc
+
+
+@njit(cache=True, inline="always")
 def bound_error2(mode, dd, T, oxt, n, f):  # pragma: no cover - compiled
     """‖δ‖² for the step bound of :func:`normalised_rates`, observer laws.
 
