@@ -30,7 +30,9 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   runtime (:func:`_kernel`). The single identifier's hot path skips the dispatcher
   altogether: the optional C extension ``_call`` calls :func:`c_observer_step`, the same
   body compiled as a C function (:mod:`~simgap.identifiers.fastcall`; ≈ 0.65 µs per
-  ``Identifier.step`` against ≈ 1.15 µs through the dispatcher);
+  ``Identifier.step`` against ≈ 1.15 µs through the dispatcher). That caller is the
+  identifier's ``step`` itself (an instance attribute that falls back on the general path),
+  which also saves the Python frame of a method (≈ 0.06-0.13 µs of a ≈ 0.4 µs step);
 * numba's atomic reference counting on every array binding took ≈ 25 % of a batched step:
   the runtime-enabled kernels work on owner-less views (:mod:`~simgap.identifiers._raw`);
 * loops over the hidden units vectorise only if their indices are unsigned (``_ix``: no
@@ -39,14 +41,21 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
 * the divergence bound uses weight norms tracked by an exact identity instead of a backup
   pass over the weights (:func:`~simgap.identifiers.laws.unified_update`);
 * the ``auto`` preset's extras (running scales, noise gate, bound-normalised steps; issue 14
-  allows 1.3× the thesis preset's step): LLVM does not reorder a float sum, so every
-  reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is taken from Ŵ's column norms
-  (vectorised; n_h serial terms instead of n·n_h, once per baseline-2 mini-batch);
-  ‖σ‖², ‖x̄‖², ‖δ‖² are summed once and shared with the update; s_eff comes from mean
-  squares (one square root, one division) and the means' β once per step. Measured
-  (``bench_identifiers.py --scales-only``, 200 interleaved runs, load ≈ 4): ``auto`` over
-  thesis 1.22-1.26 (instantaneous), 1.29-1.32 (integral), 1.31-1.32 (mini-batch), from
-  1.44, 1.47, 1.76 (40 runs, load 5.5) before.
+  allows 1.3× the thesis preset's step at the commit it was filed on): LLVM does not
+  reorder a float sum, so every reduction is a serial chain of ≈ 4-cycle adds, and a sum
+  accumulated in the scratch waits for its own store on every term (the scratch and the
+  row may be one array, so LLVM keeps it in memory). ‖Ŵ D‖_F² is taken straight from Ŵ
+  with each column norm in a register (:func:`~simgap.identifiers.laws.weight_jacobian_norm2`;
+  baseline 2 takes the column norms once per mini-batch); Ŵᵀv keeps four hidden units'
+  sums in registers (:func:`~simgap.identifiers.network.mat_t_vec`); ‖σ‖², ‖x̄‖², ‖δ‖² are
+  summed once and shared with the update; s_eff comes from mean squares (one square root,
+  one division) and enters the update as a factor of the step sizes, so the hidden error
+  does not wait for ĝ_k (≈ 150 cycles of dependent arithmetic); the square roots of the
+  running means and the noise gate's ρ⁺ are taken at the end of the step that changes them
+  (:mod:`~simgap.identifiers.scales`). Baseline 2 bursts every 10 steps (half the fixed
+  cost per burst; :func:`~simgap.identifiers.config.auto_preset`). Measured
+  (``benchmarks/bench_auto_cost_vs_filing.py``, medians of interleaved runs): see
+  ``benchmarks/results/auto_cost_vs_filing.json``.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
