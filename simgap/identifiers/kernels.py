@@ -42,15 +42,14 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   pass over the weights (:func:`~simgap.identifiers.laws.unified_update`);
 * the ``auto`` preset's extras (running scales, noise gate, bound-normalised steps; issue 14
   allows 1.3× the thesis preset's step at the commit it was filed on): LLVM does not
-  reorder a float sum, so every reduction is a serial chain of ≈ 4-cycle adds, and a sum
-  accumulated in the scratch waits for its own store on every term (the scratch and the
-  row may be one array, so LLVM keeps it in memory). ‖Ŵ D‖_F² is taken straight from Ŵ
-  with each column norm in a register (:func:`~simgap.identifiers.laws.weight_jacobian_norm2`;
-  baseline 2 takes the column norms once per mini-batch); Ŵᵀv keeps four hidden units'
-  sums in registers (:func:`~simgap.identifiers.network.mat_t_vec`); ‖σ‖², ‖x̄‖², ‖δ‖² are
-  summed once and shared with the update; s_eff comes from mean squares (one square root,
-  one division) and enters the update as a factor of the step sizes, so the hidden error
-  does not wait for ĝ_k (≈ 150 cycles of dependent arithmetic); the square roots of the
+  reorder a float sum, so every reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is
+  taken from Ŵ's column norms (vectorised; n_h serial terms instead of n·n_h, once per
+  baseline-2 mini-batch; keeping four columns' sums in registers instead, or fusing the
+  two loops, compiled to scalar code and measured slower, as did the same for Ŵᵀv);
+  ‖σ‖², ‖x̄‖², ‖δ‖² are summed once and shared with the update; s_eff comes from mean
+  squares (one square root, one division) and enters the update as a factor of the step
+  sizes, so the hidden error does not wait for ĝ_k (≈ 150 cycles of dependent arithmetic);
+  the square roots of the
   running means and the noise gate's ρ⁺ are taken at the end of the step that changes them
   (:mod:`~simgap.identifiers.scales`). Baseline 2 bursts every 10 steps (half the fixed
   cost per burst; :func:`~simgap.identifiers.config.auto_preset`). Measured
@@ -77,13 +76,14 @@ from simgap.identifiers._raw import raw
 from simgap.identifiers.laws import (
     INTEGRAL,
     bound_error2,
+    column_norms2,
     dot,
+    jacobian_norm2,
     normalised_rates,
     observer_delta,
     observer_error,
     scratch_size,
     unified_update,
-    weight_jacobian_norm2,
     z_filter_step,
 )
 from simgap.identifiers.minibatch import DUE, FILLED, buffer_push, sgd_step
@@ -349,10 +349,11 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         xx = dot(T, txn, T, txn, p)
         dd = dot(T, td, T, td, n)  # ‖δ‖² unscaled
         if ce > 0.0:  # bound-normalised gradients (the "auto" preset), for δ / s_eff
+            column_norms2(R, ow, n, h, T, tsc + h)  # unified_update's scratch: b only
             k1, k2 = normalised_rates(k1, k2, ss, xx,
                                       bound_error2(mode, dd * inv * inv, T, txt, n,
                                                    inv / (a_d * R[HP_LAM])),
-                                      weight_jacobian_norm2(R, ow, n, h, T, ts), ce)
+                                      jacobian_norm2(T, tsc + h, ts, h), ce)
         if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1 * inv, k2 * inv,
                               l1, l2, R[HP_MAXN], HP_NORM2, tsc, ss, xx, dd):
             return STATUS_DIVERGED

@@ -174,60 +174,6 @@ def jacobian_norm2(T, oc, os, h):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def weight_jacobian_norm2(R, ow, n, h, T, os):  # pragma: no cover - compiled
-    """‖Ŵ D‖_F² straight from Ŵ at ``R[ow:]`` and σ at ``T[os:]``, for one sample.
-
-    The same sums in the same order as :func:`column_norms2` then :func:`jacobian_norm2`
-    (bit for bit), with the column norms c_j of four hidden units at a time kept in
-    registers (the layout of :func:`~simgap.identifiers.network.mat_t_vec`): the per-step
-    observer laws need ‖Ŵ D‖² once per step, and accumulating the column norms in ``T`` made
-    each row of Ŵ wait for the previous row's store (``T`` and ``R`` may be one array).
-    Baseline 2, whose Ŵ is fixed over a mini-batch, takes the column norms once and
-    :func:`jacobian_norm2` per sample.
-    """
-    acc = 0.0
-    j = 0
-    while j + 4 <= h:
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        c3 = 0.0
-        for r in range(n):
-            base = ow + r * h + j
-            w0 = R[_ix(base)]
-            w1 = R[_ix(base + 1)]
-            w2 = R[_ix(base + 2)]
-            w3 = R[_ix(base + 3)]
-            c0 += w0 * w0
-            c1 += w1 * w1
-            c2 += w2 * w2
-            c3 += w3 * w3
-        s0 = T[_ix(os + j)]
-        s1 = T[_ix(os + j + 1)]
-        s2 = T[_ix(os + j + 2)]
-        s3 = T[_ix(os + j + 3)]
-        d0 = 1.0 - s0 * s0
-        d1 = 1.0 - s1 * s1
-        d2 = 1.0 - s2 * s2
-        d3 = 1.0 - s3 * s3
-        acc += d0 * d0 * c0
-        acc += d1 * d1 * c1
-        acc += d2 * d2 * c2
-        acc += d3 * d3 * c3
-        j += 4
-    while j < h:
-        c = 0.0
-        for r in range(n):
-            w = R[_ix(ow + r * h + j)]
-            c += w * w
-        sj = T[_ix(os + j)]
-        d = 1.0 - sj * sj
-        acc += d * d * c
-        j += 1
-    return acc
-
-
-@njit(cache=True, inline="always")
 def bound_error2(mode, dd, T, oxt, n, f):  # pragma: no cover - compiled
     """‖δ‖² for the step bound of :func:`normalised_rates`, observer laws.
 

@@ -27,36 +27,16 @@ from simgap.identifiers.errors import IdentifierError
 def mat_t_vec(M, om, rows, h, v, ov, y, oy):  # pragma: no cover - compiled
     """Product y = Mᵀ v for the row-major (rows × h) block ``M[om:]``: y_j = Σ_r M_rj v_r.
 
-    ``v`` at ``v[ov : ov + rows]``, ``y`` written to ``y[oy : oy + h]``; each y_j summed over
-    r in order from 0. Four hidden units at a time keep their sums in registers (one vector
-    register once LLVM packs them): accumulating in ``y`` itself made every row wait for the
-    previous row's store, because ``y`` and ``M`` may be one array (measured: ≈ 5 % of an
-    identifier step). The same sums, in the same order: the same bits.
+    ``v`` at ``v[ov : ov + rows]``, ``y`` written to ``y[oy : oy + h]``; summed over r in
+    order, vectorised over j.
     """
-    j = 0
-    while j + 4 <= h:
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        a3 = 0.0
-        for r in range(rows):
-            vr = v[_ix(ov + r)]
-            base = om + r * h + j
-            a0 += M[_ix(base)] * vr
-            a1 += M[_ix(base + 1)] * vr
-            a2 += M[_ix(base + 2)] * vr
-            a3 += M[_ix(base + 3)] * vr
-        y[_ix(oy + j)] = a0
-        y[_ix(oy + j + 1)] = a1
-        y[_ix(oy + j + 2)] = a2
-        y[_ix(oy + j + 3)] = a3
-        j += 4
-    while j < h:
-        acc = 0.0
-        for r in range(rows):
-            acc += M[_ix(om + r * h + j)] * v[_ix(ov + r)]
-        y[_ix(oy + j)] = acc
-        j += 1
+    for j in range(h):
+        y[_ix(oy + j)] = 0.0
+    for r in range(rows):
+        vr = v[_ix(ov + r)]
+        base = om + r * h
+        for j in range(h):
+            y[_ix(oy + j)] += M[_ix(base + j)] * vr
 
 
 @njit(cache=True, inline="always", error_model="numpy")
