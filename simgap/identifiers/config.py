@@ -376,7 +376,7 @@ def auto_preset(kind: Kind | str, dt: float) -> IdentifierConfig:
       k = 50 0.32-0.33 → 0.37-0.38 / 0.18-0.28 → 0.20-0.24. M = 32 at P_upd = 10 costs less
       again but doubles each burst's gradient noise: k = 50 consistency 0.26-0.68. Half the
       bursts (each with fixed costs: the index draw, the kernel call) bring baseline 2's
-      step to 0.97× the thesis preset's at the filing commit, from 1.29× (issue 14's cost
+      step to 0.96-0.98× the thesis preset's at the filing commit, from 1.29× (issue 14's cost
       bar, ``benchmarks/bench_auto_cost_vs_filing.py``).
     * Baseline 2 learns on the observer's estimate, x̄_k = [x̂_k; u_k]
       (``minibatch_input="estimate"``, the observer with the same a_d), against the measured

@@ -53,14 +53,15 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   running means and the noise gate's ρ⁺ are taken at the end of the step that changes them
   (:mod:`~simgap.identifiers.scales`). Baseline 2 bursts every 10 steps (half the fixed
   cost per burst; :func:`~simgap.identifiers.config.auto_preset`). Measured
-  (``benchmarks/bench_auto_cost_vs_filing.py``, medians of 31 interleaved runs, two runs
-  at load 3.6-5.9 and 1.8): ``auto`` over the thesis preset at the filing commit 1.12-1.13
-  (instantaneous), 1.14-1.18 (integral), 0.96-0.97 (mini-batch), from 1.17, 1.26, 1.29
-  (21 runs, load 2.3) before; over today's thesis preset 1.33-1.34, 1.35-1.36, 0.94-0.97
-  (``bench_identifiers.py --scales-only``, 200 runs: 1.39-1.40, 1.39-1.41, 1.00): the
+  (``benchmarks/bench_auto_cost_vs_filing.py --runs 31 --repeats 8``, pooled medians,
+  load 4.6-5.1): ``auto`` over the thesis preset at the filing commit 1.08
+  (instantaneous), 1.13 (integral; 1.00-1.19 per worker pair), 0.98 (mini-batch), from
+  1.17, 1.26, 1.29 (21 runs, load 2.3) before; over today's thesis preset 1.30, 1.38,
+  0.98 (``bench_identifiers.py --scales-only``, 200 runs, load 5.3: 1.33, 1.43 for the
+  observer laws; its mini-batch median is bimodal at that load, best runs 1.01): the
   Python frame saved above is a fixed ≈ 0.05-0.1 µs off both, so the ratio to today's
   thesis preset rose (1.22, 1.28, 1.30 before) while ``auto``'s own step fell from
-  ≈ 0.46 to ≈ 0.38 µs.
+  ≈ 0.46 to ≈ 0.37-0.40 µs.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
