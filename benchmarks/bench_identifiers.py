@@ -142,6 +142,7 @@ def loop_means(kind: str, rows: list, runs: int, dispatcher: bool = False) -> li
         if dispatcher:
             ident._hot = None
             ident._step_kernel = K.ready("observer_step_single")
+            vars(ident).pop("step", None)  # the C caller's instance attribute: the method
         step = ident.step
         t0 = clock()
         for xk, uk, fk, xn in rows:

@@ -27,7 +27,7 @@ def test_rl_env_variants_differ_only_by_the_residual():
     o1, _ = plain.reset(seed=3)
     o2, _ = resid.reset(seed=3)
     np.testing.assert_array_equal(o1, o2[:4])
-    for _ in range(60):  # baseline 2 updates every 5 steps once its buffer holds a batch
+    for _ in range(60):  # baseline 2 (the task's identifier) updates every 10 steps
         o1, r1, *_ = plain.step(np.array([0.2], dtype=np.float32))
         o2, r2, _, _, info = resid.step(np.array([0.2], dtype=np.float32))
     np.testing.assert_array_equal(o1, o2[:4])

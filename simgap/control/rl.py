@@ -63,7 +63,8 @@ class RLTask:
         identifier: identifier kind run in both variants (its ``auto`` preset). Baseline 2
             (``"minibatch"``) by default: over 8 random-action episodes of this task its
             per-episode ĝ error was 0.23-0.39 against a true residual of 0.41-0.89 (RMS, m/s²
-            and rad/s²), instantaneous 0.41-0.73 and integral 0.35-0.68 (issue 14, seed 0).
+            and rad/s²), instantaneous 0.41-0.73 and integral 0.35-0.68 (issue 14, seed 0;
+            baseline 2 then burst every 5 steps with M = 32, now every 10 with M = 48).
         residual_scale: ``scale`` of :class:`~simgap.wrappers.ResidualObservation` in the
             ``residual`` variant (``"running"``, a declared scale in m/s² / rad/s², or
             ``None`` for the raw ĝ as before issue 14).

@@ -51,16 +51,22 @@ def available() -> bool:
     return True
 
 
-def observer_stepper(state: np.ndarray, n: int
+def observer_stepper(state: np.ndarray, n: int,
+                     fallback: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                                        np.ndarray] | None = None
                      ) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
                                    np.ndarray | None] | None:
-    """A callable ``(x, u, f, x_next) -> ĝ or None`` stepping the one-row ``state``.
+    """A callable ``(x, u, f, x_next) -> ĝ`` stepping the one-row ``state``.
 
-    It returns a new ĝ array (n) on success and ``None`` if an argument is not a float64,
-    1-D, C-contiguous array or the kernel reports a failure (the row is then unchanged and
-    the caller takes the general path). Returns ``None`` instead of a callable if the fast
-    path is unavailable (:data:`UNAVAILABLE` says why).
+    It returns a new ĝ array (n) on success. If an argument is not a float64, 1-D,
+    C-contiguous array or the kernel reports a failure (the row is then unchanged), it returns
+    ``fallback(x, u, f, x_next)``, or ``None`` without a fallback (the caller then takes the
+    general path). With a fallback that takes the general path (converts, or raises the typed
+    error) the callable can replace ``Identifier.step`` outright: an instance attribute that
+    Python calls without a frame of its own (≈ 0.13 µs of a ≈ 0.4 µs step saved). Returns
+    ``None`` instead of a callable if the fast path is unavailable (:data:`UNAVAILABLE` says
+    why).
     """
     if not available():
         return None
-    return _call.Stepper(K.c_observer_step().address, state, n)
+    return _call.Stepper(K.c_observer_step().address, state, n, fallback)

@@ -35,7 +35,7 @@ class Identifier(IdentifierBase):
     """
 
     _DERIVED = (*IdentifierBase._DERIVED, "_g_view", "_xb_view", "_xh_view", "_xt_view",
-                "_e_view", "_hot", "_step_kernel")
+                "_e_view", "_hot", "_step_kernel", "step")
 
     def __init__(self, kind: str, n_states: int, n_inputs: int, dt: float, *,
                  config: IdentifierConfig | None = None, seed: int = 0) -> None:
@@ -49,11 +49,16 @@ class Identifier(IdentifierBase):
         self._xt_view = self._field("x_tilde")[0]
         self._e_view = self._field("e")[0]
         # the hot path of the observer laws (compiled on first use, then from numba's cache):
-        # the C caller if it is built (fastcall), else numba's dispatcher
+        # the C caller if it is built (fastcall), else numba's dispatcher. The C caller falls
+        # back on the general path itself, so it stands in for the method ``step`` (an
+        # instance attribute: no Python frame per call; same results, tested)
+        self.__dict__.pop("step", None)
         self._hot = (None if self._minibatch
-                     else fastcall.observer_stepper(self._state, self.n_states))
+                     else fastcall.observer_stepper(self._state, self.n_states, self._general))
         self._step_kernel = (None if self._minibatch or self._hot is not None
                              else ready("observer_step_single"))
+        if self._hot is not None:
+            self.step = self._hot
 
     def step(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray
              ) -> np.ndarray:
@@ -75,17 +80,20 @@ class Identifier(IdentifierBase):
                 exceed ``config.max_weight_norm`` (identifier unchanged).
         """
         hot = self._hot
-        if hot is not None:  # the C caller: one kernel call, which also allocates and fills g
-            g = hot(x, u, f, x_next)
-            if g is not None:
-                return g
-        elif not self._minibatch:  # numba's dispatcher
+        if hot is not None:  # the C caller (also the instance's ``step``, see _bind)
+            return hot(x, u, f, x_next)
+        if not self._minibatch:  # numba's dispatcher
             g = _empty(self.n_states)
             try:
                 if not self._step_kernel(self._state, x, u, f, x_next, g):
                     return g
             except TypeError:  # not float64 C-contiguous 1-D: the general path converts
                 pass
+        return self._general(x, u, f, x_next)
+
+    def _general(self, x: np.ndarray, u: np.ndarray, f: np.ndarray, x_next: np.ndarray
+                 ) -> np.ndarray:
+        """The general path of :meth:`step` (converts the inputs, or raises the typed error)."""
         self._run(x, u, f, x_next)  # converts and retries, or raises the typed error
         return self._g_view.copy()
 

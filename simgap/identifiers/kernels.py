@@ -30,7 +30,9 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
   runtime (:func:`_kernel`). The single identifier's hot path skips the dispatcher
   altogether: the optional C extension ``_call`` calls :func:`c_observer_step`, the same
   body compiled as a C function (:mod:`~simgap.identifiers.fastcall`; ≈ 0.65 µs per
-  ``Identifier.step`` against ≈ 1.15 µs through the dispatcher);
+  ``Identifier.step`` against ≈ 1.15 µs through the dispatcher). That caller is the
+  identifier's ``step`` itself (an instance attribute that falls back on the general path),
+  which also saves the Python frame of a method (≈ 0.06-0.13 µs of a ≈ 0.4 µs step);
 * numba's atomic reference counting on every array binding took ≈ 25 % of a batched step:
   the runtime-enabled kernels work on owner-less views (:mod:`~simgap.identifiers._raw`);
 * loops over the hidden units vectorise only if their indices are unsigned (``_ix``: no
@@ -39,14 +41,27 @@ Where the time of one ≈ 1 µs step goes, and what the code does about it (meas
 * the divergence bound uses weight norms tracked by an exact identity instead of a backup
   pass over the weights (:func:`~simgap.identifiers.laws.unified_update`);
 * the ``auto`` preset's extras (running scales, noise gate, bound-normalised steps; issue 14
-  allows 1.3× the thesis preset's step): LLVM does not reorder a float sum, so every
-  reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is taken from Ŵ's column norms
-  (vectorised; n_h serial terms instead of n·n_h, once per baseline-2 mini-batch);
+  allows 1.3× the thesis preset's step at the commit it was filed on): LLVM does not
+  reorder a float sum, so every reduction is a serial chain of ≈ 4-cycle adds. ‖Ŵ D‖_F² is
+  taken from Ŵ's column norms (vectorised; n_h serial terms instead of n·n_h, once per
+  baseline-2 mini-batch; keeping four columns' sums in registers instead, or fusing the
+  two loops, compiled to scalar code and measured slower, as did the same for Ŵᵀv);
   ‖σ‖², ‖x̄‖², ‖δ‖² are summed once and shared with the update; s_eff comes from mean
-  squares (one square root, one division) and the means' β once per step. Measured
-  (``bench_identifiers.py --scales-only``, 200 interleaved runs, load ≈ 4): ``auto`` over
-  thesis 1.22-1.26 (instantaneous), 1.29-1.32 (integral), 1.31-1.32 (mini-batch), from
-  1.44, 1.47, 1.76 (40 runs, load 5.5) before.
+  squares (one square root, one division) and enters the update as a factor of the step
+  sizes, so the hidden error does not wait for ĝ_k (≈ 150 cycles of dependent arithmetic);
+  the square roots of the
+  running means and the noise gate's ρ⁺ are taken at the end of the step that changes them
+  (:mod:`~simgap.identifiers.scales`). Baseline 2 bursts every 10 steps (half the fixed
+  cost per burst; :func:`~simgap.identifiers.config.auto_preset`). Measured
+  (``benchmarks/bench_auto_cost_vs_filing.py --runs 31 --repeats 8``, pooled medians,
+  load 4.6-5.1): ``auto`` over the thesis preset at the filing commit 1.08
+  (instantaneous), 1.13 (integral; 1.00-1.19 per worker pair), 0.98 (mini-batch), from
+  1.17, 1.26, 1.29 (21 runs, load 2.3) before; over today's thesis preset 1.30, 1.38,
+  0.98 (``bench_identifiers.py --scales-only``, 200 runs, load 5.3: 1.33, 1.43 for the
+  observer laws; its mini-batch median is bimodal at that load, best runs 1.01): the
+  Python frame saved above is a fixed ≈ 0.05-0.1 µs off both, so the ratio to today's
+  thesis preset rose (1.22, 1.28, 1.30 before) while ``auto``'s own step fell from
+  ≈ 0.46 to ≈ 0.37-0.40 µs.
 
 A row that fails (non-finite input, divergence) is left exactly as it was before the call
 (nothing half-written) and gets a non-zero status; the other rows proceed.
@@ -82,9 +97,9 @@ from simgap.identifiers.scales import (
     normalise_inputs,
     scale_beta,
     scale_outputs,
+    stored_whiteness,
     update_scales,
     update_whiteness,
-    whiteness,
 )
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
@@ -277,7 +292,7 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
     ons = scale_block(n, m, h)
     adc = R[HP_ADC]
     if adc != 0.0:  # noise gate: towards the clean-data endpoint by the smooth share ρ⁺ of x̃
-        wg = whiteness(R, ons, p)
+        wg = stored_whiteness(R, ons, p)
         a_d = gated(a_d, adc, wg)
         eta1 = gated(eta1, R[HP_ETA1C], wg)
         eta2 = gated(eta2, R[HP_ETA2C], wg)
@@ -320,8 +335,9 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
                 T[_ix(ty + n + r)] = T[_ix(tg + r)] - a_d * T[_ix(txt + r)]
             eps_ms = mean_square(T, ty + n, n)
             inv = delta_factor(R, ons, p, eps_ms)
-            for r in range(n):
-                T[_ix(td + r)] *= inv
+        # δ stays unscaled: 1/s_eff enters as a factor of the step sizes (the update is
+        # linear in δ), so the hidden error Ŵᵀδ and its dot products do not wait for ĝ_k,
+        # ε_k and s_eff (a chain of ≈ 150 cycles; 1 without running scales: exact)
         l1 = 0.0
         l2 = 0.0
         if R[HP_RHO1] != 0.0 or R[HP_RHO2] != 0.0:  # leakage Δt ρ_i ‖x̃‖ (none in "auto")
@@ -332,13 +348,14 @@ def _observer_row(R, T, x, u, f, x_next, i, n, m, h):  # pragma: no cover - comp
         k2 = dt * eta2
         ss = dot(T, ts, T, ts, h)
         xx = dot(T, txn, T, txn, p)
-        dd = dot(T, td, T, td, n)
-        if ce > 0.0:  # bound-normalised gradients (the "auto" preset)
+        dd = dot(T, td, T, td, n)  # ‖δ‖² unscaled
+        if ce > 0.0:  # bound-normalised gradients (the "auto" preset), for δ / s_eff
             column_norms2(R, ow, n, h, T, tsc + h)  # unified_update's scratch: b only
             k1, k2 = normalised_rates(k1, k2, ss, xx,
-                                      bound_error2(mode, dd, T, txt, n, inv / (a_d * R[HP_LAM])),
+                                      bound_error2(mode, dd * inv * inv, T, txt, n,
+                                                   inv / (a_d * R[HP_LAM])),
                                       jacobian_norm2(T, tsc + h, ts, h), ce)
-        if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1, k2,
+        if not unified_update(R, ow, n, h, p, T, td, ts, ta, ty, T, txn, k1 * inv, k2 * inv,
                               l1, l2, R[HP_MAXN], HP_NORM2, tsc, ss, xx, dd):
             return STATUS_DIVERGED
     # nothing can fail from here on: commit the observer state and the results

@@ -44,6 +44,13 @@ period gives Ŵ entries of ε/s ≫ 1 (measured: divergence of every kind on Cas
 
 An input with no data yet (m = 0) enters as 0. The statistics are updated after a step has
 succeeded (nothing half-written on failure) and only while learning (frozen: held).
+
+Cost: the square roots r_c = √m_c, s = √m_out and the noise gate's ρ⁺
+(:func:`whiteness`) are taken where the statistics change (:func:`update_scales`,
+:func:`update_whiteness`, at the end of a step) and stored next to them, so the next step's
+forward pass reads them instead of starting with p + 1 square roots and a division: the
+same values bit for bit, off the step's critical path (issue 14's cost bar,
+``benchmarks/bench_auto_cost_vs_filing.py``).
 """
 
 from __future__ import annotations
@@ -56,26 +63,40 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 
 @njit(cache=True, inline="always")
 def block_size(n, p):  # pragma: no cover - compiled (callable from Python too)
-    """Entries of a row's scale block: k, m_in (p), m_out, ⟨‖x̃_k‖²⟩, ⟨x̃_{k+1}·x̃_k⟩.
+    """Entries of a row's scale block.
 
-    k is the sample count; the last two are the statistics of :func:`whiteness`.
+    k, m_in (p), m_out, ⟨‖x̃_k‖²⟩, ⟨x̃_{k+1}·x̃_k⟩, then the values derived from them for the
+    next step: r = √m_in (p), s = √m_out and ρ⁺. k is the sample count; the two means after
+    m_out are the statistics of :func:`whiteness`.
     """
-    return 4 + p
+    return 6 + 2 * p
+
+
+@njit(cache=True, inline="always")
+def _root_in(ons, p):  # pragma: no cover - compiled
+    """Offset of r = √m_in (p entries) in the scale block at ``ons``."""
+    return ons + 4 + p
+
+
+@njit(cache=True, inline="always")
+def _root_out(ons, p):  # pragma: no cover - compiled
+    """Offset of s = √m_out in the scale block at ``ons``."""
+    return ons + 4 + 2 * p
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def normalise_inputs(R, ons, p, xb, oxb, out, oout):  # pragma: no cover - compiled
-    """x̄ ⊘ r into ``out[oout:]`` (0 where the input has no data yet, m_c = 0)."""
-    om = ons + 1
+    """x̄ ⊘ r into ``out[oout:]`` (0 where the input has no data yet, m_c = 0, r_c = 0)."""
+    orr = _root_in(ons, p)
     for c in range(p):
-        mc = R[_ix(om + c)]
-        out[_ix(oout + c)] = xb[_ix(oxb + c)] / math.sqrt(mc) if mc > 0.0 else 0.0
+        rc = R[_ix(orr + c)]
+        out[_ix(oout + c)] = xb[_ix(oxb + c)] / rc if rc > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always")
 def output_scale(R, ons, p):  # pragma: no cover - compiled
-    """The output scale s = √m_out (0 before the first nonzero residual sample)."""
-    return math.sqrt(R[_ix(ons + 1 + p)])
+    """The output scale s = √m_out (0 before the first nonzero residual sample; stored)."""
+    return R[_ix(_root_out(ons, p))]
 
 
 @njit(cache=True, inline="always")
@@ -120,17 +141,22 @@ def update_scales(R, ow, n, h, p, ons, xb, oxb, e2, beta,
     ``xb[oxb:]`` holds the raw x̄_k (p), ``e2`` is the mean square of the residual sample
     ε_k (:func:`mean_square` over its n rows; the caller has it already for
     :func:`delta_factor`), ``beta`` the step of the means (:func:`scale_beta`). The
-    squared norm ‖Ŵ‖² at ``R[onorm]`` follows the rescale (V̂ is not touched).
+    squared norm ‖Ŵ‖² at ``R[onorm]`` follows the rescale (V̂ is not touched). The roots
+    r = √m_in and s = √m_out the next step reads are stored too.
     """
     om = ons + 1
+    orr = _root_in(ons, p)
     for c in range(p):
         old = R[_ix(om + c)]
         v = xb[_ix(oxb + c)]
-        R[_ix(om + c)] = old + beta * (v * v - old)
+        mc = old + beta * (v * v - old)
+        R[_ix(om + c)] = mc
+        R[_ix(orr + c)] = math.sqrt(mc)
     oo = om + p
     old = R[oo]
     new = old + beta * (e2 - old)
     R[oo] = new
+    R[_ix(_root_out(ons, p))] = math.sqrt(new)
     if old > 0.0 and new > 0.0 and old != new:
         f = math.sqrt(old / new)
         for j in range(n * h):
@@ -150,13 +176,20 @@ def whiteness(R, ons, p):  # pragma: no cover - compiled
     the Wiener gain of the error signal: 1 on clean data, 0 where noise dominates x̃.
     Measured (``auto`` integral law, seed 0): 0.985-0.999 on thesis Case 1, the sines,
     Cases 2-1 and 2-2; −0.05 to −0.03 on Case 1 with sensor noise k = 10 and 50. 0 before
-    the first sample.
+    the first sample. Computed from the statistics; the step reads the value
+    :func:`update_whiteness` stored (:func:`stored_whiteness`, the same number).
     """
     m0 = R[_ix(ons + 2 + p)]
     m1 = R[_ix(ons + 3 + p)]
     if not m0 > 0.0:
         return 0.0
     return min(max(m1 / m0, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def stored_whiteness(R, ons, p):  # pragma: no cover - compiled
+    """ρ⁺ of :func:`whiteness` as :func:`update_whiteness` stored it (0 before any sample)."""
+    return R[_ix(_root_out(ons, p) + 1)]
 
 
 @njit(cache=True, inline="always")
@@ -172,7 +205,7 @@ def update_whiteness(R, ons, p, xt, oxt, xn, oxn, xh1, oxh1, n,
 
     ``xt[oxt:]`` holds x̃_k; x̃_{k+1} = x_{k+1} − x̂_{k+1} from ``xn[oxn:]`` and
     ``xh1[oxh1:]`` (n each); the same exponential mean (``beta``, :func:`scale_beta`) and
-    sample count as the scales.
+    sample count as the scales. Stores the new ρ⁺ (:func:`stored_whiteness`).
     """
     o0 = ons + 2 + p
     a0 = 0.0
@@ -183,3 +216,4 @@ def update_whiteness(R, ons, p, xt, oxt, xn, oxn, xh1, oxh1, n,
         a1 += v * (xn[_ix(oxn + r)] - xh1[_ix(oxh1 + r)])
     R[_ix(o0)] = R[_ix(o0)] + beta * (a0 - R[_ix(o0)])
     R[_ix(o0 + 1)] = R[_ix(o0 + 1)] + beta * (a1 - R[_ix(o0 + 1)])
+    R[_ix(_root_out(ons, p) + 1)] = whiteness(R, ons, p)

@@ -192,7 +192,7 @@ def test_format_2_files_load_and_continue_identically(kind, tmp_path):
     for name in ("scale_rate", "a_d_clean", "eta1_clean", "eta2_clean"):
         del meta["config"][name]
     st = data["state"]
-    block = 4 + 4 + 2  # count, m_in (p = 6), m_out, the two whiteness statistics
+    block = K.block_size.py_func(4, 6)  # the scale block (statistics, their roots, ρ⁺)
     data["state"] = np.hstack([st[:, :20], st[:, K.HP_SIZE:st.shape[1] - block]])
     old = tmp_path / "old.npz"
     np.savez(old, meta=np.array(json.dumps(meta)), **data)
@@ -203,7 +203,13 @@ def test_format_2_files_load_and_continue_identically(kind, tmp_path):
 
 def test_whiteness_is_the_smooth_share_of_the_observer_error():
     """ρ⁺ ≈ S / (S + N): ≈ 1 for a smooth x̃, ≈ 0 for white noise, ≈ ½ for equal powers."""
-    from simgap.identifiers.scales import scale_beta, update_whiteness, whiteness
+    from simgap.identifiers.scales import (
+        block_size,
+        scale_beta,
+        stored_whiteness,
+        update_whiteness,
+        whiteness,
+    )
 
     n, p, k = 3, 5, 20000
     rng = np.random.default_rng(0)
@@ -212,12 +218,15 @@ def test_whiteness_is_the_smooth_share_of_the_observer_error():
     noise = rng.normal(size=(k + 1, n)) * np.sqrt(0.5)  # the power of the sines
     zero = np.zeros(n)
     for sig, want in ((smooth, 1.0), (noise, 0.0), (smooth + noise, 0.5)):
-        R = np.zeros(p + 4)
+        R = np.zeros(block_size.py_func(n, p))
         assert whiteness.py_func(R, 0, p) == 0.0  # nothing measured yet: the noise-safe end
+        assert stored_whiteness.py_func(R, 0, p) == 0.0
         for j in range(k):
             update_whiteness.py_func(R, 0, p, sig[j], 0, sig[j + 1], 0, zero, 0, n,
                                      scale_beta.py_func(R, 0, 0.0, 0.002))
             R[0] += 1.0  # the sample count, as update_scales advances it
+            if j % 997 == 0:  # the step reads the stored value: the same number
+                assert stored_whiteness.py_func(R, 0, p) == whiteness.py_func(R, 0, p)
         assert whiteness.py_func(R, 0, p) == pytest.approx(want, abs=0.05)
 
 

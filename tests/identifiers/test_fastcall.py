@@ -27,6 +27,7 @@ def _pair(kind: str, **kw):
     slow = make_identifier(kind, 4, 2, 0.002, seed=3, **kw)
     slow._hot = None
     slow._step_kernel = K.ready("observer_step_single")
+    del slow.step  # the C caller's instance attribute: back to the method
     return fast, slow
 
 
@@ -43,8 +44,47 @@ def test_the_c_caller_is_built_and_used():
         pytest.fail(f"the fast path of Identifier.step is off: {fastcall.UNAVAILABLE}. setup.py "
                     f"builds simgap/identifiers/_call.c with {_c_compiler()}; reinstall with "
                     f"`make install` and read pip's build warning")
-    assert make_identifier("integral", 4, 2, 0.002)._hot is not None
+    ident = make_identifier("integral", 4, 2, 0.002)
+    assert ident._hot is not None
+    assert ident.step is ident._hot  # the C caller is the instance's step (no Python frame)
     assert make_identifier("minibatch", 4, 2, 0.002)._hot is None  # no C path for baseline 2
+    assert "step" not in vars(make_identifier("minibatch", 4, 2, 0.002))
+
+
+def test_the_c_step_survives_copies_and_is_collected():
+    """Pickle / deepcopy rebind the C step to the copy's state; the reference cycle
+    identifier → C step → its fallback → identifier is collected."""
+    import copy
+    import gc
+    import pickle
+    import weakref
+
+    if not fastcall.available():
+        pytest.skip(fastcall.UNAVAILABLE)
+    ident = make_identifier("integral", 4, 2, 0.002, config=preset("auto", "integral", dt=0.002))
+    rng = np.random.default_rng(1)
+    stream = [(rng.normal(size=4), rng.normal(size=2), rng.normal(size=4), rng.normal(size=4))
+              for _ in range(300)]
+    for row in stream[:200]:
+        ident.step(*row)
+    twins = [copy.deepcopy(ident), pickle.loads(pickle.dumps(ident)), copy.deepcopy(ident)]
+    for twin in twins:
+        assert twin.step is twin._hot and twin.step is not ident.step
+    for x, u, f, xn in stream[200:]:
+        g = ident.step(x, u, f, xn)
+        assert np.any(g != 0.0)
+        for twin in twins[:2]:
+            np.testing.assert_array_equal(twin.step(x, u, f, xn), g)
+        # keyword arguments take the general path (the method's parameter names)
+        np.testing.assert_array_equal(twins[2].step(x=x, u=u, f=f, x_next=xn), g)
+    for twin in twins:
+        np.testing.assert_array_equal(twin._persistent(), ident._persistent())
+    with pytest.raises(TypeError):
+        ident.step(x, u)  # the wrong count: the general path's TypeError
+    ref = weakref.ref(ident)
+    del ident, twins, twin
+    gc.collect()
+    assert ref() is None
 
 
 @pytest.mark.parametrize("kind", ["instantaneous", "integral"])
