@@ -312,7 +312,8 @@ class Fitter:
         window = prepared.smoother.window
         rows = validation.usable_rows(self.n, window, self.mask, seg)
         self.split = validation.split_rows(prepared.t, rows, seg, train_fraction,
-                                           regions=self._region_variables(system, prepared))
+                                           regions=self._region_variables(system, prepared),
+                                           rates=self._input_rates(system, prepared))
         refine = validation.refinement(len(rows))
         if refine > 1:   # few half-window rows: each read as up to MAX_REFINE finer rows
             step = max(1, window // 2)
@@ -370,6 +371,26 @@ class Fitter:
         cols = [np.asarray(v, dtype=np.float64) for name, (v, unit) in variables.items()
                 if (names is None and str(unit).endswith("/s")) or (names and name in names)]
         return np.column_stack(cols) if cols else None
+
+    @staticmethod
+    def _input_rates(system: Any, prepared: Prepared) -> np.ndarray | None:
+        """(N, K) time derivatives of the form's inputs (``input_signals``), or None.
+
+        The form's ``input_signals`` name its input columns in the prepared signals (the
+        arm: the torques ``u``; the bicycle: the steering angles). Their rates stratify the
+        split's blocks by input activity (:func:`.validation.block_activity`), where the
+        information of an input-driven term lies. None when the form declares none.
+        """
+        names = getattr(system, "input_signals", None)
+        t = np.asarray(prepared.t, dtype=np.float64)
+        cols = []
+        for name in names or ():
+            u = prepared.signals.get(name)
+            if u is None or len(t) < 2:
+                continue
+            u = np.asarray(u, dtype=np.float64)
+            cols.append(np.gradient(u, t, axis=0).reshape(len(t), -1))
+        return np.concatenate(cols, axis=1) if cols else None
 
     def _y(self, rows: np.ndarray) -> np.ndarray:
         return (self.r[rows] * self.w).ravel()
