@@ -735,6 +735,41 @@ class Fitter:
             entry["_testable"] = True
         return entry
 
+    def _cannot_test(self, hyp: tuple[Term, ...], fit: FitResult, held: tuple,
+                     alpha: float) -> str:
+        """Why the validation blocks cannot test a hypothesis that did not pass ("" if they can).
+
+        A hypothesis whose held-out gain was not significant is "cannot test", not
+        "rejected", when the validation blocks hold less than
+        :data:`.validation.LOW_INFORMATION` of its regressor energy per training row (for
+        every term of it) *and* could not have detected it were it real at its fitted size
+        (:func:`.validation.detectable` at the round's level): the test saw too little of
+        what fitted it to say anything. The selection is unchanged (the hypothesis still
+        counts among the round's tests and is not picked); only the decision and its reason
+        say what the evidence is.
+
+        Args:
+            hyp: the hypothesis' terms.
+            fit: its trial fit (the chosen terms, then the hypothesis' terms last).
+            held: (whitened errors on the validation rows, …, whitened contribution of the
+                hypothesis' terms there).
+            alpha: the round's per-hypothesis level.
+        """
+        k = len(hyp)
+        share = max(self.information(t, nl, self.valid, self.train)
+                    for t, nl in zip(hyp, fit.nl[-k:], strict=True))
+        if not share < validation.LOW_INFORMATION:
+            return ""
+        power = validation.detectable(held[0], held[2],
+                                      sum(t.effect.n_params for t in hyp), alpha)
+        if power.detectable:
+            return ""
+        what = " + ".join(f"{t.effect.label} at {t.channel}" for t in hyp)
+        return (f"cannot test: the validation blocks hold {share:.1%} of the regressor energy "
+                f"per row that the training blocks hold about {what}; were it real at its "
+                f"fitted size it would give a statistic of {max(power.expected, 0.0):.3g} there, "
+                f"below the {power.critical:.3g} the test needs (not evidence against it; ")
+
     @staticmethod
     def hypotheses(remaining: Sequence[Term]) -> list[tuple[Term, ...]]:
         """Every remaining term alone, plus joint hypotheses of terms at one channel.
@@ -792,11 +827,12 @@ class Fitter:
                 f = self.fit_new(current, h, full=False)
                 held.append((self._errors(f, self.valid),
                              self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
-                             else None))
+                             else None,
+                             self.on(f, sum(f.pred[-len(h):]), self.valid) * self.w))
                 trials.append((h, _light(f)))
                 del f
             evals = [self.evaluate(current, h, f, errors=e)
-                     for (h, f), (e, _) in zip(trials, held, strict=True)]
+                     for (h, f), (e, *_) in zip(trials, held, strict=True)]
             testable = [e for e in evals if e["_testable"]]
             alpha = ALPHA / max(len(testable), 1)
             for e in evals:
@@ -807,6 +843,11 @@ class Fitter:
                 tried[tuple(t.key for t in e["_hyp"])] = e
             ok = [i for i, e in enumerate(evals)
                   if e["_testable"] and e["p_value"] < alpha and e["gain"] > 0]
+            for i, e in enumerate(evals):
+                if e["_testable"] and i not in ok:
+                    note = self._cannot_test(trials[i][0], trials[i][1], held[i], alpha)
+                    if note:
+                        e.update(decision="cannot test", reason=note + e["reason"] + ")")
             gains = np.array([e["gain"] if e["_testable"] else -np.inf for e in evals])
             sel.history.append({"runner_up": sorted(
                 ((e["effect"] + "@" + e["channel"], float(e["gain"]))
@@ -888,7 +929,7 @@ class Fitter:
             sel.history[-1].update(term="+".join(t.label for t in hyp),
                                    gain=float(gains[pick]), p_value=e["p_value"], accepted=True)
             self._aliases(sel, hyp, held[pick][1],
-                          [(h, a) for (h, _), (_, a) in zip(trials, held, strict=True)],
+                          [(h, a) for (h, _), (_, a, _) in zip(trials, held, strict=True)],
                           gains, float(gains[pick]))
             del trials, held
             current = fit

@@ -93,6 +93,9 @@ AMPLITUDE_LEVELS = 3
 #: energy per row below 1 % of the log's mean): input-driven terms (a steering lag, an
 #: input delay) hold no information there (:func:`block_activity`).
 QUIET = 0.1
+#: Fewest blocks of each kind (quiet, moving) for the activity stratum to be used: with 30 %
+#: of the blocks held out, three blocks give every part a share by systematic sampling.
+MIN_STRATUM_BLOCKS = 3
 #: Thinned rows on each side of a confirmation block left out of every part: the thinning
 #: step is half a filter window, so two rows cover the window through which the smoothing
 #: filter correlates a held-out row with its neighbours.
@@ -203,8 +206,9 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
     every ramp (measured: a steering lag's validation blocks held 0.8 % of its training
     regressor energy per row, its test "rejected" with p = 1). The activity stratum is used
     only when the log holds both quiet blocks (input-rate RMS below ``quiet`` times the
-    log's) and moving ones; an excitation that keeps moving (a multisine, a chirp) has no
-    quiet block and its split is unchanged.
+    log's) and moving ones, each at least :data:`MIN_STRATUM_BLOCKS` blocks; an excitation
+    that keeps moving (a multisine, a chirp, an arm log with one short hold) has no such
+    quiet stretch and its split is unchanged.
 
     Args:
         rates: (n, K) input rates on the grid (each input's time derivative; any units),
@@ -215,7 +219,8 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
 
     Returns:
         (B,) 1 for a moving block, 0 for a quiet one; all zeros when ``rates`` is None, when
-        the inputs never move, or when no block (or every block) is quiet.
+        the inputs never move, or when either kind holds fewer than
+        :data:`MIN_STRATUM_BLOCKS` blocks.
     """
     nb = int(labels.max()) + 1 if len(labels) else 0
     none = np.zeros(nb, dtype=np.int64)
@@ -231,7 +236,8 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
     count = np.bincount(labels, minlength=nb).astype(float)
     level = np.sqrt(np.bincount(labels, weights=np.mean(x**2, axis=1), minlength=nb) / count)
     moving = (level >= quiet).astype(np.int64)
-    return moving if 0 < int(moving.sum()) < nb else none
+    least = MIN_STRATUM_BLOCKS   # one or two blocks are no stratum to spread over parts
+    return moving if least <= int(moving.sum()) <= nb - least else none
 
 
 def tail_covers(regions: np.ndarray, early: np.ndarray, tail: np.ndarray) -> bool:
