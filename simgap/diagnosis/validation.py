@@ -96,6 +96,8 @@ QUIET = 0.1
 #: Fewest blocks of each kind (quiet, moving) for the activity stratum to be used: with 30 %
 #: of the blocks held out, three blocks give every part a share by systematic sampling.
 MIN_STRATUM_BLOCKS = 3
+#: Activity levels of the moving blocks (quantiles of their input-rate RMS).
+ACTIVITY_LEVELS = 2
 #: Thinned rows on each side of a confirmation block left out of every part: the thinning
 #: step is half a filter window, so two rows cover the window through which the smoothing
 #: filter correlates a held-out row with its neighbours.
@@ -235,9 +237,17 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
         return none
     count = np.bincount(labels, minlength=nb).astype(float)
     level = np.sqrt(np.bincount(labels, weights=np.mean(x**2, axis=1), minlength=nb) / count)
-    moving = (level >= quiet).astype(np.int64)
+    moving = level >= quiet
     least = MIN_STRATUM_BLOCKS   # one or two blocks are no stratum to spread over parts
-    return moving if least <= int(moving.sum()) <= nb - least else none
+    if not least <= int(moving.sum()) <= nb - least:
+        return none
+    # moving blocks by activity level (rank halves): a block that holds a whole ramp and
+    # one that holds its end are both spread over the parts
+    out = moving.astype(np.int64)
+    idx = np.flatnonzero(moving)
+    rank = np.argsort(np.argsort(level[idx], kind="stable"), kind="stable")
+    out[idx] = 1 + (rank * ACTIVITY_LEVELS) // len(idx)
+    return out
 
 
 def tail_covers(regions: np.ndarray, early: np.ndarray, tail: np.ndarray) -> bool:
