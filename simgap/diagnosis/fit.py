@@ -7,8 +7,10 @@ read as up to four finer rows inside its block, :func:`.validation.refinement`).
 are split by
 :mod:`.validation`: usable rows only, cut into contiguous blocks (never across a gap) that
 are assigned by operating region (direction × amplitude of the direction variables,
-:meth:`Fitter._region_variables`), so that training, validation and the outer held-out part
-each hold every region in proportion. The outer held-out part (report numbers and the
+:meth:`Fitter._region_variables`) and input activity (the rates of the form's
+``input_signals``, :meth:`Fitter._input_rates`, where the inputs are held in some blocks and
+move in others), so that training, validation and the outer held-out part each hold every
+region and the input's transients in proportion. The outer held-out part (report numbers and the
 final confirmation) is a share of such blocks plus the last usable rows (the tail, which the
 rollout comparison needs contiguous); it is never fitted and never used to pick.
 
@@ -88,6 +90,13 @@ rounds and more nonlinear refits *because it names more* (``benchmarks/diagnosis
 
 Every term tried ends in :attr:`Selection.tried` with its test, statistic, p-value, effect
 size and decision (named, rejected, cannot test, removed, demoted, not identifiable, not confirmed).
+"Cannot test" also words a hypothesis that did not pass on validation blocks holding too
+little of it to detect it at its fitted size (:meth:`Fitter._cannot_test`: information share
+below :data:`.validation.LOW_INFORMATION` and :func:`.validation.detectable` false), which is
+no evidence against it. When a pick is not confirmed, its look-alikes of that round (aliases,
+and hypotheses at its channel within :data:`ALIAS_GAIN` of its gain or declared
+``confusable_with`` within :data:`TIE`) are listed in a warning and its reason: the gain, if
+real, could be any of them (:meth:`Fitter._unconfirmed_lookalikes`).
 """
 
 from __future__ import annotations

@@ -15,8 +15,11 @@ operating region:
   the rows before the tail, at least :data:`MIN_BLOCK_ROWS` rows, i.e. 2.5 filter windows);
   each block gets an **operating region** (:func:`block_regions`: the sign of each
   direction variable — joint velocities, a car's lateral velocity and yaw rate — and the
-  amplitude level of their size), and the blocks, ordered by region then time, are
-  assigned by systematic sampling: every part holds each region in proportion;
+  amplitude level of their size) and, where the inputs are held in some blocks and move in
+  others, an **input-activity** stratum (:func:`block_activity`: quiet, or the level of the
+  inputs' rate), and the blocks, ordered by activity, region, then time, are assigned by
+  systematic sampling: every part holds each region and the input's transients in
+  proportion (a steering lag's or an input delay's information lies in the transients);
 * the **outer held-out part** (``test``: report numbers and the final confirmation, never
   fitted and never used to pick) is the last ``1 − train_fraction`` of the usable rows (the
   *tail*, which the rollout comparison needs contiguous) when they span the operating
@@ -57,7 +60,11 @@ the part also holds much less of the term's regressor energy per row than the fi
 (:data:`LOW_INFORMATION`), it holds too little information about the term to test it, and
 the report says "cannot test" rather than "not confirmed" or "0 % explained". A term that
 is merely small (as undetectable on a part as informative as the fit part) is tested as
-usual: its validation gain must replicate.
+usual: its validation gain must replicate. The same rule words the selection's tests: a
+hypothesis whose validation gain was not significant, on validation blocks that hold less
+than :data:`LOW_INFORMATION` of its training regressor energy per row and could not have
+detected it at its fitted size, is "cannot test", not "rejected"
+(:meth:`.fit.Fitter._cannot_test`; wording only, the selection is unchanged).
 """
 
 from __future__ import annotations
