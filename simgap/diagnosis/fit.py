@@ -357,9 +357,10 @@ class Fitter:
         #: aliased alternatives of each named term (:meth:`_aliases`), by the term's key
         self._alternatives: dict[tuple, list[Term]] = {}
         #: look-alikes of each round's pick, by the pick's key: (its validation gain, [(term,
-        #: gain, correlation or None)]) — the aliases of :meth:`_aliases` and the declared
-        #: look-alikes (``confusable_with``) within :data:`TIE` of it; reported when the pick
-        #: is not confirmed (:meth:`_confirm`)
+        #: gain, correlation or None)]) — the aliases of :meth:`_aliases`, the hypotheses at
+        #: its channel with ≥ ALIAS_GAIN of its gain and the declared look-alikes
+        #: (``confusable_with``) within :data:`TIE` (:meth:`_tied_lookalikes`); reported when
+        #: the pick is not confirmed (:meth:`_confirm`)
         self._lookalikes: dict[tuple, tuple[float, list[tuple[Term, float, float | None]]]] = {}
         #: named terms the outer test part could not detect at their fitted size
         #: (:meth:`_confirm`), by key: the report says "cannot test" for them
@@ -1002,7 +1003,7 @@ class Fitter:
                          near: Sequence[int],
                          trials: Sequence[tuple], held: Sequence[tuple],
                          gains: Sequence[float], gain: float) -> None:
-        """Record the significant near-equal hypotheses of a single-term pick at its channel.
+        """Record the near-equal hypotheses of a single-term pick at its channel.
 
         Besides the aliases of :meth:`_aliases` (strongly correlated contributions), a
         tested single-term hypothesis at the pick's channel (``tested``: significant or not)
@@ -1134,12 +1135,12 @@ class Fitter:
                     f"{p:.2g} ≥ {alpha:.2g}, share removed there {_share(g.share_removed)})")
             tried[(t.key,)].update(decision="not confirmed", reason=text)
             self._forget(sel, t)
-            self._unconfirmed_lookalikes(sel, tried, t, p)
+            self._unconfirmed_lookalikes(sel, tried, t, p, named=terms)
             sel.history.append({"term": t.label, "removed": True, "p_value": float(p),
                                 "part": "test"})
 
-    def _unconfirmed_lookalikes(self, sel: Selection, tried: dict, t: Term, p: float
-                                ) -> None:
+    def _unconfirmed_lookalikes(self, sel: Selection, tried: dict, t: Term, p: float,
+                                named: Sequence[Term] = ()) -> None:
         """Name the look-alike set of a pick that was not confirmed (issue 13).
 
         The pick's validation gain was explained nearly as well by other hypotheses (its
@@ -1147,9 +1148,11 @@ class Fitter:
         dropping the pick must not drop them silently. A warning lists the set and says
         that the gain, if it is a real mismatch, could be any of them, and the ``tried``
         entry's reason says so too. The verdict is unchanged (the gain did not replicate).
+        Look-alikes still in the model (``named``: picked in another round) are left out.
         """
         gain, alike = self._lookalikes.get(t.key, (0.0, []))
-        alike = [(u, g, c) for u, g, c in alike if u.key != t.key]
+        keep = {u.key for u in named}
+        alike = [(u, g, c) for u, g, c in alike if u.key != t.key and u.key not in keep]
         if not alike:
             return
         names = ", ".join(
