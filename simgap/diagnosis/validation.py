@@ -206,13 +206,13 @@ def block_regions(regions: np.ndarray | None, rows: np.ndarray, labels: np.ndarr
 
 def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarray,
                    quiet: float = QUIET) -> np.ndarray:
-    """Input-activity stratum of each block: 1 where the inputs move, 0 where they are held.
+    """Input-activity stratum of each block: 0 where the inputs are held, ≥ 1 where they move.
 
     A term driven by the input's changes (a steering lag, an input delay) has its
     information where the input moves: on steady circles, the steering ramps between held
     levels (about a fifth of the log). The direction × amplitude regions
     (:func:`block_regions`) do not see them, and a systematic sample of blocks can then miss
-    every ramp (measured: a steering lag's validation blocks held 0.8 % of its training
+    every ramp (measured: a steering lag's validation blocks held 0.09 % of its training
     regressor energy per row, its test "rejected" with p = 1). The activity stratum is used
     only when the log holds both quiet blocks (input-rate RMS below ``quiet`` times the
     log's) and moving ones, each at least :data:`MIN_STRATUM_BLOCKS` blocks; an excitation
@@ -227,7 +227,9 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
         quiet: a block is quiet below this share of the input-rate RMS over ``rows``.
 
     Returns:
-        (B,) 1 for a moving block, 0 for a quiet one; all zeros when ``rates`` is None, when
+        (B,) 0 for a quiet block, 1 … :data:`ACTIVITY_LEVELS` for a moving one (the
+        quantile level of its input-rate RMS among the moving blocks); all zeros when
+        ``rates`` is None, when
         the inputs never move, or when either kind holds fewer than
         :data:`MIN_STRATUM_BLOCKS` blocks.
     """

@@ -3,7 +3,7 @@
 * **Input transients in the split.** On steady circles a steering lag's information lies in
   the steering ramps (about a fifth of the log); the blocks were stratified by the sign and
   size of vy and r only, and the systematic sample of blocks left every ramp out of the
-  validation blocks (seed 1: 0.8 % of the training regressor energy per row), so the lag
+  validation blocks (seed 1: 0.09 % of the training regressor energy per row), so the lag
   was "rejected (p = 1)". The blocks are now also ordered by input activity
   (:func:`simgap.diagnosis.validation.block_activity`), and a hypothesis the validation
   blocks hold too little of to detect is "cannot test", not "rejected".
