@@ -229,8 +229,7 @@ def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarra
     Returns:
         (B,) 0 for a quiet block, 1 … :data:`ACTIVITY_LEVELS` for a moving one (the
         quantile level of its input-rate RMS among the moving blocks); all zeros when
-        ``rates`` is None, when
-        the inputs never move, or when either kind holds fewer than
+        ``rates`` is None, when the inputs never move, or when either kind holds fewer than
         :data:`MIN_STRATUM_BLOCKS` blocks.
     """
     nb = int(labels.max()) + 1 if len(labels) else 0
