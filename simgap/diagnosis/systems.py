@@ -396,6 +396,9 @@ class MechanicalSystem:
     #: term's basis depends on its own values only, so the fitter may cache it.
     context_couples = False
     kind = "mechanical"
+    #: Input columns of the prepared signals (the filtered torques; their rates stratify the
+    #: split's blocks by input activity, :func:`.validation.block_activity`).
+    input_signals = ("u",)
 
     def __init__(self, model: MechanicalNominalModel, columns: AdapterColumns | None = None,
                  name: str | None = None, channels: Sequence[str] | None = None, *,
@@ -986,6 +989,9 @@ class BicycleSystem:
     #: Variables whose sign is the direction of motion (turn direction); not vx, which is
     #: positive whenever the car drives forward.
     direction_variables = ("vy", "r")
+    #: Input columns of the prepared signals (their rates stratify the split's blocks by
+    #: input activity, :func:`.validation.block_activity`).
+    input_signals = ("delta_f", "delta_r")
     #: The vocabulary holds no offset whose sign follows the turn direction: a named effect
     #: must beat one (:meth:`.fit.Fitter._demote_direction_offsets`).
     direction_offset_probe = True

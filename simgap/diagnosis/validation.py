@@ -15,8 +15,11 @@ operating region:
   the rows before the tail, at least :data:`MIN_BLOCK_ROWS` rows, i.e. 2.5 filter windows);
   each block gets an **operating region** (:func:`block_regions`: the sign of each
   direction variable — joint velocities, a car's lateral velocity and yaw rate — and the
-  amplitude level of their size), and the blocks, ordered by region then time, are
-  assigned by systematic sampling: every part holds each region in proportion;
+  amplitude level of their size) and, where the inputs are held in some blocks and move in
+  others, an **input-activity** stratum (:func:`block_activity`: quiet, or the level of the
+  inputs' rate), and the blocks, ordered by activity, region, then time, are assigned by
+  systematic sampling: every part holds each region and the input's transients in
+  proportion (a steering lag's or an input delay's information lies in the transients);
 * the **outer held-out part** (``test``: report numbers and the final confirmation, never
   fitted and never used to pick) is the last ``1 − train_fraction`` of the usable rows (the
   *tail*, which the rollout comparison needs contiguous) when they span the operating
@@ -57,7 +60,11 @@ the part also holds much less of the term's regressor energy per row than the fi
 (:data:`LOW_INFORMATION`), it holds too little information about the term to test it, and
 the report says "cannot test" rather than "not confirmed" or "0 % explained". A term that
 is merely small (as undetectable on a part as informative as the fit part) is tested as
-usual: its validation gain must replicate.
+usual: its validation gain must replicate. The same rule words the selection's tests: a
+hypothesis whose validation gain was not significant, on validation blocks that hold less
+than :data:`LOW_INFORMATION` of its training regressor energy per row and could not have
+detected it at its fitted size, is "cannot test", not "rejected"
+(:meth:`.fit.Fitter._cannot_test`; wording only, the selection is unchanged).
 """
 
 from __future__ import annotations
@@ -89,6 +96,15 @@ REGION_SHARE = 0.2
 COVER_RATIO = 0.25
 #: Amplitude levels of the operating regions (:func:`block_regions`).
 AMPLITUDE_LEVELS = 3
+#: A block whose input-rate RMS is below this share of the log's is *quiet* (its rate
+#: energy per row below 1 % of the log's mean): input-driven terms (a steering lag, an
+#: input delay) hold no information there (:func:`block_activity`).
+QUIET = 0.1
+#: Fewest blocks of each kind (quiet, moving) for the activity stratum to be used: with 30 %
+#: of the blocks held out, three blocks give every part a share by systematic sampling.
+MIN_STRATUM_BLOCKS = 3
+#: Activity levels of the moving blocks (quantiles of their input-rate RMS).
+ACTIVITY_LEVELS = 2
 #: Thinned rows on each side of a confirmation block left out of every part: the thinning
 #: step is half a filter window, so two rows cover the window through which the smoothing
 #: filter correlates a held-out row with its neighbours.
@@ -188,6 +204,60 @@ def block_regions(regions: np.ndarray | None, rows: np.ndarray, labels: np.ndarr
     return code * levels + level
 
 
+def block_activity(rates: np.ndarray | None, rows: np.ndarray, labels: np.ndarray,
+                   quiet: float = QUIET) -> np.ndarray:
+    """Input-activity stratum of each block: 0 where the inputs are held, ≥ 1 where they move.
+
+    A term driven by the input's changes (a steering lag, an input delay) has its
+    information where the input moves: on steady circles, the steering ramps between held
+    levels (about a fifth of the log). The direction × amplitude regions
+    (:func:`block_regions`) do not see them, and a systematic sample of blocks can then miss
+    every ramp (measured: a steering lag's validation blocks held 0.09 % of its training
+    regressor energy per row, its test "rejected" with p = 1). The activity stratum is used
+    only when the log holds both quiet blocks (input-rate RMS below ``quiet`` times the
+    log's) and moving ones, each at least :data:`MIN_STRATUM_BLOCKS` blocks; an excitation
+    that keeps moving (a multisine, a chirp, an arm log with one short hold) has no such
+    quiet stretch and its split is unchanged.
+
+    Args:
+        rates: (n, K) input rates on the grid (each input's time derivative; any units),
+            or None.
+        rows: the rows the blocks are made of.
+        labels: block label (0 … B−1) of each row.
+        quiet: a block is quiet below this share of the input-rate RMS over ``rows``.
+
+    Returns:
+        (B,) 0 for a quiet block, 1 … :data:`ACTIVITY_LEVELS` for a moving one (the
+        quantile level of its input-rate RMS among the moving blocks); all zeros when
+        ``rates`` is None, when the inputs never move, or when either kind holds fewer than
+        :data:`MIN_STRATUM_BLOCKS` blocks.
+    """
+    nb = int(labels.max()) + 1 if len(labels) else 0
+    none = np.zeros(nb, dtype=np.int64)
+    if rates is None or nb == 0:
+        return none
+    x = np.asarray(rates, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    x = x[rows]
+    scale = np.sqrt(np.mean(x**2, axis=0))
+    x = x[:, scale > 0] / scale[scale > 0]
+    if x.shape[1] == 0:
+        return none
+    count = np.bincount(labels, minlength=nb).astype(float)
+    level = np.sqrt(np.bincount(labels, weights=np.mean(x**2, axis=1), minlength=nb) / count)
+    moving = level >= quiet
+    least = MIN_STRATUM_BLOCKS   # one or two blocks are no stratum to spread over parts
+    if not least <= int(moving.sum()) <= nb - least:
+        return none
+    # moving blocks by activity level (rank halves): a block that holds a whole ramp and
+    # one that holds its end are both spread over the parts
+    out = moving.astype(np.int64)
+    idx = np.flatnonzero(moving)
+    rank = np.argsort(np.argsort(level[idx], kind="stable"), kind="stable")
+    out[idx] = 1 + (rank * ACTIVITY_LEVELS) // len(idx)
+    return out
+
+
 def tail_covers(regions: np.ndarray, early: np.ndarray, tail: np.ndarray) -> bool:
     """Whether the last usable rows span the operating regions of the rows before them.
 
@@ -229,7 +299,8 @@ def _spread(order: np.ndarray, k: int) -> np.ndarray:
 
 
 def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
-               train_fraction: float, regions: np.ndarray | None = None) -> Split:
+               train_fraction: float, regions: np.ndarray | None = None,
+               rates: np.ndarray | None = None) -> Split:
     """Split usable rows into training, validation and outer held-out parts (blocks).
 
     The usable rows before the tail are cut into :data:`BLOCKS` contiguous blocks that
@@ -258,6 +329,10 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
             and share of the fit part's blocks that train.
         regions: (n, R) direction variables on the grid that define the operating regions,
             or None (blocks then spread over time only).
+        rates: (n, K) input rates on the grid (:func:`block_activity`), or None. Where the
+            inputs are held in some blocks and move in others, the blocks are ordered by
+            this activity first, so that every part holds the input's transients in
+            proportion (the information of a steering lag or an input delay).
 
     Raises:
         ValueError: too few usable rows for the three parts.
@@ -290,7 +365,8 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     nb = block + 1
     # a stationary log (the tail spans the regions) spreads validation over time as well
     region = block_regions(regions if spread else None, early, labels)
-    order = np.lexsort((np.arange(nb), region))   # by region, then time
+    active = block_activity(rates, early, labels)
+    order = np.lexsort((np.arange(nb), region, active))  # by activity, region, then time
     n_conf = int(round((n_out - n_tail) / max(len(early), 1) * nb))
     n_conf = min(max(n_conf, 1 if n_out > n_tail else 0), nb - 2)
     conf = _spread(order, n_conf)
