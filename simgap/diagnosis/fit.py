@@ -658,8 +658,10 @@ class Fitter:
         """(noise, seen) of an ``excitation`` rule at channel ``j`` (``FitSpec.excitation``).
 
         ``seen(fn)``: ``fn`` of the channel's held command on the full grid, through the
-        equation's filter (the regressors' kernel), at every usable row the fit reads (training,
-        validation and test: the input's excitation, not the split's). ``noise``: the
+        filter the fit applies to an input term (:meth:`output`), at every usable row the
+        fit reads (training, validation and test: the input's excitation, not the split's).
+        A change of the command that crosses ±d in a few samples (a zero-mean doublet
+        between a dead zone and a relay) is smoothed out by a long window. ``noise``: the
         std of the error ``fit`` leaves at those rows (channel units, structure error
         included) times √τ, its integrated autocorrelation time in rows, i.e. per
         independent row.
@@ -669,10 +671,11 @@ class Fitter:
         err = (self.r[rows, j] - self.on(fit, fit.total(self.n, self.c), rows)[:, j])[keep]
         rows = rows[keep]
         noise = float(np.std(err)) * float(np.sqrt(autocorrelation_time(err)))
-        held, smoother = self.prepared.held_input[:, j], self.prepared.smoother
+        held, sm = self.prepared.held_input[:, j], self.prepared.smoother
+        sm = getattr(sm, "held", sm)         # a held command is filtered as it is (output)
 
         def seen(fn: Any) -> np.ndarray:
-            return smoother(np.asarray(fn(held), float)[:, None])[:, 0][rows]
+            return sm(np.asarray(fn(held), float)[:, None])[:, 0][rows]
 
         return noise, seen
 
