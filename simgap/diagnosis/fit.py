@@ -690,6 +690,31 @@ class Fitter:
         """Whitened errors (rows, C) a fit leaves on ``rows``."""
         return (self.r[rows] - self.on(fit, fit.total(self.n, self.c), rows)) * self.w
 
+    def _excitation_floor(self, fit: FitResult, j: int) -> tuple[float, Any]:
+        """(noise, seen) of an ``excitation`` rule at channel ``j`` (``FitSpec.excitation``).
+
+        ``seen(fn)``: ``fn`` of the channel's held command on the full grid, through the
+        filter the fit applies to an input term (:meth:`output`), at every usable row the
+        fit reads (training, validation and test: the input's excitation, not the split's).
+        A change of the command that crosses ±d in a few samples (a zero-mean doublet
+        between a dead zone and a relay) is smoothed out by a long window. ``noise``: the
+        std of the error ``fit`` leaves at those rows (channel units, structure error
+        included) times √τ, its integrated autocorrelation time in rows, i.e. per
+        independent row.
+        """
+        rows = self._usable
+        keep = np.broadcast_to(self.mask, self.r.shape)[rows, j] > 0   # rows the fit reads
+        err = (self.r[rows, j] - self.on(fit, fit.total(self.n, self.c), rows)[:, j])[keep]
+        rows = rows[keep]
+        noise = float(np.std(err)) * float(np.sqrt(autocorrelation_time(err)))
+        held, sm = self.prepared.held_input[:, j], self.prepared.smoother
+        sm = getattr(sm, "held", sm)         # a held command is filtered as it is (output)
+
+        def seen(fn: Any) -> np.ndarray:
+            return sm(np.asarray(fn(held), float)[:, None])[:, 0][rows]
+
+        return noise, seen
+
     def information(self, term: Term, nl: np.ndarray, held_out: np.ndarray,
                     train: np.ndarray) -> float:
         """Held-out/training regressor energy per row of a term (:mod:`.validation`)."""
@@ -1313,8 +1338,9 @@ class Fitter:
         * An effect with an ``excitation`` rule the recorded input does not meet at the
           fitted values (a dead zone whose command seldom passes through ±d, or dwells
           inside it too little to tell it from a relay), judged on the channel's held
-          input over the recording's valid rows (the input's excitation, not the split's)
-          against the channel's noise floor per independent sample.
+          input over the recording's valid rows (the input's excitation, not the split's),
+          as the fit reads it (through the equation's filter) against the error the fit
+          leaves there per independent row (:meth:`_excitation_floor`).
         * An effect with ``confusable_with`` partners at the same channel (a dead zone
           beside a torque bias and a Coulomb friction): undetermined with them fitted
           beside it by the same test as the symmetry partners (:meth:`_determined`).
@@ -1341,11 +1367,8 @@ class Fitter:
                 continue
             valid = self.prepared.valid
             u = held[:, t.index] if valid is None else held[np.asarray(valid, bool), t.index]
-            # neighbouring filtered samples are correlated over the window: one
-            # independent sample per window // 2 rows, as the fit's thinning assumes
-            step = max(1, self.prepared.smoother.window // 2)
-            noise = float(self.prepared.noise_rms[t.index]) * float(np.sqrt(step))
-            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u, noise)
+            why = t.effect.excitation(t.effect, fit.lin[i], fit.nl[i], u,
+                                      *self._excitation_floor(fit, t.index))
             if why:
                 out[t.key] = f"{t.effect.label} at {t.channel} is not identifiable: {why}"
         for t in hyp:

@@ -32,10 +32,11 @@ from simgap.recordings import Recording
 #: Channels an effect is drawn on where its recordings cannot identify it on every channel.
 #: The arm's joint-1 command carries the gravity torque of both links: in the proof's 20 s
 #: recordings it is positive on 89-97 % of the samples and inside ±0.1 N·m on only 17-81
-#: of 10,000. The proof's draws at joint 1 are named for seeds 0-3 (error ≤ 2 %); seed 4's
-#: (d = 0.10, 17 samples inside) is rightly "not identifiable" (the command must pass
-#: through and dwell inside the band; ``tests/diagnosis/test_dead_zone.py`` checks that
-#: verdict). Joint 2's command crosses zero 6-18 times per recording.
+#: of 10,000. With the dwell read as the fit reads it (through the equation's filter), only
+#: seed 2's draw at joint 1 (92 samples inside, χ² 9.9) can be told from a relay; seeds
+#: 0, 1, 3 and 4 (17-43 samples inside, χ² 0.2-2.3) are rightly "not identifiable" (the
+#: command must pass through and dwell inside the band; ``tests/diagnosis/test_dead_zone.py``
+#: checks that verdict for seed 4). Joint 2's command crosses zero 6-18 times per recording.
 PROOF_CHANNELS: dict[str, tuple[str, ...]] = {"dead_zone": ("joint2",)}
 #: Parameter ranges per effect: name -> (model, per-channel choices, {param: (lo, hi, signed)}),
 #: read from the vocabulary's injection ranges (:attr:`simgap.models.effects.Param.inject`)

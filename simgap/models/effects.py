@@ -91,10 +91,14 @@ class FitSpec:
         input_map: ``input_map(nl, t, u) -> u_acting`` for an ``on_input`` effect: the input
             that acts on the channel, from the channel's held input ``u`` on the time grid
             ``t`` (s) and the nonlinear coordinates ``nl``.
-        excitation: ``excitation(effect, lin, nl, u, noise) -> str``: why the recorded
-            input ``u`` (the channel's held input, in time order) cannot identify the effect
-            at its fitted values ("" when it can); ``noise`` is the channel's residual noise
-            std per independent sample (channel units). Checked before the effect is named.
+        excitation: ``excitation(effect, lin, nl, u, noise, seen) -> str``: why the
+            recorded input ``u`` (the channel's held input on the recording's valid samples,
+            in time order) cannot identify the effect at its fitted values ("" when it
+            can). ``seen(fn)`` is what the fit reads of a contribution ``fn(command)``
+            (channel units): the function applied to the held command on the full grid,
+            through the equation's filter, at the rows the tests read; ``noise`` is the std
+            per independent one of those rows of the error the fit leaves there (channel
+            units). Checked before the effect is named.
         confusable_with: same-channel effects whose regressors may coincide with this one's
             on some data (a dead zone on a command of one sign is a torque bias; on a
             command whose sign follows the velocity it is a Coulomb friction): the effect is
@@ -151,7 +155,7 @@ class FitSpec:
         = field(default=None, repr=False)
     input_map: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None \
         = field(default=None, repr=False)
-    excitation: Callable[[Any, np.ndarray, np.ndarray, np.ndarray, float], str] | None \
+    excitation: Callable[[Any, np.ndarray, np.ndarray, np.ndarray, float, Any], str] | None \
         = field(default=None, repr=False)
 
     def coordinates(self, params: Mapping[str, float], context: Mapping[str, float] | None = None

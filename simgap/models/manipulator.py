@@ -669,16 +669,21 @@ def _dead_zone_input(nl, t, u):
 DEAD_ZONE_MIN_PASSES = 4
 #: Level of the dwell test: inside ±d the dead zone takes the whole command (contribution
 #: u), where a relay d·sign(u) would take d; the command must dwell there long enough that
-#: the expected χ² statistic of that difference against the noise (Σ (d − |u|)² / σ² over
-#: the samples inside, σ per independent sample) reaches the χ²(1) critical value.
+#: the expected χ² statistic of that difference, as the fit reads it (through the equation's
+#: filter, at the rows the tests read), against the error the fit leaves there (σ per
+#: independent row), reaches the χ²(1) critical value.
 DEAD_ZONE_DWELL_ALPHA = 0.01
 
 
-def _dead_zone_excitation(effect, lin, nl, u, noise):
+def _dead_zone_excitation(effect, lin, nl, u, noise, seen=None):
     """Why the held command ``u`` cannot identify a dead zone of half-width ``nl[0]``.
 
-    ``u``: the channel's held input in time order; ``noise``: the channel's residual noise
-    std per independent sample (N·m or N). Returns "" when it can.
+    ``u``: the channel's held input on the valid samples, in time order (N·m or N);
+    ``noise``: std per independent row of the error the fit leaves at the channel (N·m or
+    N); ``seen(fn)``: the contribution ``fn(command)`` as the fit reads it (see
+    ``FitSpec.excitation``; ``None``: the raw samples of ``fn(u)``, one per row). A dwell
+    shorter than the equation's filter window is smeared by it: its raw samples overstate
+    what the fit can tell. Returns "" when it can.
     """
     from scipy.stats import chi2
 
@@ -690,13 +695,19 @@ def _dead_zone_excitation(effect, lin, nl, u, noise):
         return (f"the command passes through the fitted dead band ±{d:.3g} {passes} times "
                 f"(at least {DEAD_ZONE_MIN_PASSES} needed): where it stays on one side a "
                 "dead zone is a constant torque bias")
-    stat = float(np.sum((d - np.abs(u[inside])) ** 2)) / max(noise, 1e-300) ** 2
+
+    def relay_gap(v):        # dead zone − relay d·sign(v): nonzero only inside ±d
+        return np.where(np.abs(v) < d, v - d * np.sign(v), 0.0)
+
+    gap = relay_gap(u) if seen is None else seen(relay_gap)
+    stat = float(np.sum(np.asarray(gap) ** 2)) / max(noise, 1e-300) ** 2
     crit = float(chi2.isf(DEAD_ZONE_DWELL_ALPHA, 1))
     if not stat >= crit:
         return (f"the command dwells inside the fitted dead band ±{d:.3g} on "
                 f"{int(np.sum(inside))} of {u.size} samples: too little to tell a dead zone "
-                f"from a relay d·sign(u) (expected χ² {stat:.3g} < {crit:.3g}); a dead zone "
-                "needs commands that pass through and dwell near zero")
+                f"from a relay d·sign(u) (expected χ² {stat:.3g} < {crit:.3g}, as the fit "
+                "reads the difference through its filter against the error it leaves); "
+                "a dead zone needs commands that pass through and dwell near zero")
     return ""
 
 

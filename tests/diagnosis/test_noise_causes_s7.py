@@ -147,7 +147,8 @@ def test_dead_zone_and_coulomb_at_one_joint_are_both_named(seed):
 
 # ---------------------------------------------------------------- combinations are a mismatch
 def test_a_mismatch_fitted_as_a_combination_is_not_called_no_mismatch():
-    """A quantised dead zone the command cannot tell from a relay (dwell χ² 2.1) removes
+    """A quantised dead zone the command cannot tell from a relay (dwell χ² 0.9; 2.1 as read
+    before s7-quant, from raw samples against the white floor) removes
     44 % of the validation error (p = 1e-44) and is fitted as a combination, not named.
     Before: "No mismatch beyond the noise" (its fit explained the residual the mismatch
     test reads), and the significant pairs of that round read "not significant (p = 2e-43
