@@ -39,6 +39,7 @@ from simgap.identifiers.activation import tanh_scalar as fast_tanh
 from simgap.models import bicycle as bic
 from simgap.models.bicycle import BicycleNominal, plant_derivative
 from simgap.models.effects import Plant
+from simgap.models.nbcache import guard_cache
 
 
 @njit(cache=True)
@@ -267,3 +268,6 @@ class SamplingMPC:
         self._mean = np.concatenate([seq[shift:], np.repeat(seq[-1:], min(shift, seq.size))])
         self._u_prev = float(seq[min(shift, seq.size) - 1])
         return np.array([delta, 0.0])
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

@@ -47,6 +47,7 @@ from simgap.models import bicycle as bic
 from simgap.models import manipulator as man
 from simgap.models.effects import EffectInstance, PlantSchema
 from simgap.models.integrators import rk4
+from simgap.models.nbcache import guard_cache
 from simgap.recordings import MIN_SAMPLES, Recording
 
 #: Injectable manipulator effects: name -> (per joint?, parameter names), from the vocabulary.
@@ -390,3 +391,6 @@ def generate(model: str, effects: Sequence[InjectedEffect] = (), **kwargs) -> Re
     if spec.generator is None:
         raise GeneratorError(f"system {model!r} has no concealed-effect generator")
     return spec.resolve("generator")(effects, **kwargs)
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

@@ -62,6 +62,7 @@ from simgap.models.base import MechanicalNominalModel
 from simgap.models.bicycle import BicycleNominal, axle_loads, slip_angles, state_derivative
 from simgap.models.effects import format_unit
 from simgap.models.integrators import rk4_batch_step
+from simgap.models.nbcache import guard_cache
 from simgap.models.tires import MagicFormulaTire
 from simgap.recordings import Recording
 from simgap.schema import RecordingSchema
@@ -1307,3 +1308,6 @@ def __getattr__(name: str) -> Any:
                       DeprecationWarning, stacklevel=2)
         return AdapterColumns
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

@@ -40,6 +40,7 @@ from simgap.models.bicycle import (
     true_residual_vs,
 )
 from simgap.models.effects import Plant
+from simgap.models.nbcache import guard_cache
 from simgap.models.tires import MagicFormulaTire
 
 TIRE_MODELS = ("magic_formula", "linear")
@@ -269,3 +270,6 @@ class BicycleTireEnv(PlantEnv):
     def tire(self) -> MagicFormulaTire | None:
         """The truth's Magic-Formula shape, ``None`` for linear tires (view of :attr:`plant`)."""
         return self._plant.folded.extras["tire"]
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

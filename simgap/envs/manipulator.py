@@ -39,6 +39,7 @@ from simgap.models.manipulator import (
     transition,
     true_residual,
 )
+from simgap.models.nbcache import guard_cache
 
 FRICTION_DEFAULT = resolve_friction("thesis")
 
@@ -225,3 +226,6 @@ class ManipulatorFrictionEnv(PlantEnv):
     def disturbance(self) -> JointDisturbance:
         """The plant's joint bias/spring torques (read-only view of :attr:`plant`)."""
         return self._plant.folded.extras["disturbance"]
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

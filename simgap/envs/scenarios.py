@@ -32,6 +32,7 @@ import numpy as np
 from numba import njit
 
 from simgap.models.manipulator import ManipulatorNominal
+from simgap.models.nbcache import guard_cache
 
 __all__ = [
     "FeedbackLinearizationController",
@@ -438,3 +439,6 @@ def yaw_rate_entries(t, amplitude, period):  # pragma: no cover - compiled
     (``tests/envs/test_vector_native.py`` checks it).
     """
     return amplitude * math.sin(2.0 * math.pi * t / period)
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

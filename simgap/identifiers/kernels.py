@@ -101,6 +101,7 @@ from simgap.identifiers.scales import (
     update_scales,
     update_whiteness,
 )
+from simgap.models.nbcache import guard_cache
 
 HP_DT, HP_AD, HP_ETA1, HP_ETA2, HP_RHO1, HP_RHO2, HP_LAM, HP_MAXN = 0, 1, 2, 3, 4, 5, 6, 7
 HP_N, HP_M, HP_H, HP_MODE, HP_PERIOD, HP_ACT, HP_STATUS = 8, 9, 10, 11, 12, 13, 14
@@ -722,3 +723,6 @@ def predict_rows(R, n, m, h, xbar, res):  # pragma: no cover - compiled
         return
     for k in range(xbar.shape[0]):
         forward(R, HP_SIZE, n, h, p, xbar[k], 0, s, 0, res[k], 0)
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

@@ -29,6 +29,7 @@ from numba import njit
 from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops vectorise
 
 from simgap.identifiers.network import mat_t_vec
+from simgap.models.nbcache import guard_cache
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -342,3 +343,6 @@ def apply_gradients(R, ow, n, h, p, T, ogw, k1, k2, max_norm, onorm,
     for k in range((n + p) * h):
         R[_ix(ow + k)] = T[_ix(obk + k)]
     return False
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

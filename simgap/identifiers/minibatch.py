@@ -37,6 +37,7 @@ from simgap.identifiers.scales import (
     output_scale,
     scale_outputs,
 )
+from simgap.models.nbcache import guard_cache
 
 #: Columns of the per-identifier counters array.
 POS, FILLED, SINCE, DUE = 0, 1, 2, 3
@@ -127,3 +128,6 @@ def sgd_step(R, ow, n, h, p, buf, idx, dt, eta1, eta2, max_norm, onorm, T, os, o
     if ce > 0.0:
         eta1, eta2 = normalised_rates(eta1, eta2, ss / m, xx / m, dd * m, wd / m, ce)
     return apply_gradients(R, ow, n, h, p, T, ogw, eta1, eta2, max_norm, onorm, osc)
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

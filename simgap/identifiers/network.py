@@ -21,6 +21,7 @@ from numba import uint64 as _ix  # unsigned indices: no wrap-around check, loops
 
 from simgap.identifiers.activation import tanh_into
 from simgap.identifiers.errors import IdentifierError
+from simgap.models.nbcache import guard_cache
 
 
 @njit(cache=True, inline="always")
@@ -133,3 +134,6 @@ def init_weights(seed: int, n_out: int, n_hidden: int, n_in: int, w0_scale: floa
     w0 = rng.uniform(-w0_scale, w0_scale, size=(n_out, n_hidden))
     v0 = rng.uniform(-v0_scale, v0_scale, size=(n_hidden, n_in))
     return w0, v0
+
+
+guard_cache(globals())  # drop cached kernels when a module they compile in changes

@@ -209,3 +209,46 @@ def test_bicycle_cacheable_plant_step_equals_rk4_over_plant_derivative():
             u = rng.normal(size=2) * 0.1
             np.testing.assert_array_equal(bic.plant_step(s, u, theta, 0.01, 4),
                                           rk4(bic.plant_derivative, s, u, theta, 0.01, 4))
+
+
+def test_cache_guard_follows_imported_kernels_without_a_deps_list(tmp_path):
+    """An inlined kernel of another module of the package, edited: the caller recompiles.
+
+    numba keys ``pkg17.b.g``'s cache on ``b.py`` alone; ``guard_cache(globals())`` (no deps
+    named) finds ``pkg17.a`` through the imported dispatcher ``f``, and ``pkg17.c`` reaches
+    it through ``b``, so both see the edit.
+    """
+    pkg = tmp_path / "pkg17"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text(textwrap.dedent("""
+        from numba import njit
+
+        @njit(cache=True, inline="always")
+        def f():
+            return 1
+    """))
+    guard = "from simgap.models.nbcache import guard_cache\nguard_cache(globals())\n"
+    (pkg / "b.py").write_text(textwrap.dedent("""
+        from numba import njit
+        from pkg17.a import f
+
+        @njit(cache=True)
+        def g():
+            return f() + 10
+    """) + guard)
+    (pkg / "c.py").write_text(textwrap.dedent("""
+        from numba import njit
+        from pkg17.b import g
+
+        @njit(cache=True)
+        def k():
+            return g() + 100
+    """) + guard)
+    run = [sys.executable, "-c", "import pkg17.b, pkg17.c; print(pkg17.b.g(), pkg17.c.k())"]
+    env = {"PYTHONPATH": str(tmp_path), "PATH": "", "PYTHONDONTWRITEBYTECODE": "1"}
+    assert subprocess.run(run, env=env, capture_output=True, text=True,
+                          check=True).stdout.split() == ["11", "111"]
+    (pkg / "a.py").write_text((pkg / "a.py").read_text().replace("return 1", "return 2"))
+    assert subprocess.run(run, env=env, capture_output=True, text=True,
+                          check=True).stdout.split() == ["12", "112"]

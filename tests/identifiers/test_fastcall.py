@@ -27,7 +27,7 @@ def _pair(kind: str, **kw):
     slow = make_identifier(kind, 4, 2, 0.002, seed=3, **kw)
     slow._hot = None
     slow._step_kernel = K.ready("observer_step_single")
-    del slow.step  # the C caller's instance attribute: back to the method
+    slow.__dict__.pop("step", None)  # the C caller's instance attribute: back to the method
     return fast, slow
 
 
