@@ -16,22 +16,11 @@
 import numpy as np
 import pytest
 
-from simgap.diagnosis.artefacts import ARTEFACTS
 from simgap.diagnosis.effects import VOCABULARY
 from simgap.diagnosis.fit import ALPHA
-from simgap.diagnosis.generate import generate_manipulator
 from simgap.diagnosis.pipeline import diagnose
 from simgap.diagnosis.proof import draw
-from simgap.recordings import Recording
-
-PAIRS = {"dq1": "q1", "dq2": "q2"}
-
-
-def _case(effects, artefact: str | None, seed: int) -> Recording:
-    rec = generate_manipulator(effects, seed=seed, duration=20.0)
-    if artefact is not None:
-        rec = ARTEFACTS[artefact].apply(rec, PAIRS, np.random.default_rng(9000 + seed))
-    return Recording(rec.name, dict(rec.columns))
+from tests.diagnosis.test_noise_causes_s7 import _case
 
 
 def _moving_average(width: int):
