@@ -23,10 +23,12 @@ Rates are given per wall second and per CPU second of this process (``*_cpu``: t
 rate when the machine is shared); ratios (native/sync, wrapped/bare) come from the same
 repeat and are the robust numbers on a loaded machine. The load average is recorded before
 and after. The sweep numbers are copied from ``results/bench_sweeps.json`` (their own run
-and load); the diagnosis memory per sample is measured in this run by the diagnosis
-scaling benchmark's child (``diagnosis_scaling.py``: a generated 500 Hz arm log per length,
-diagnosed in a fresh process; peak RSS above the RSS before, per sample), at the lengths of
-``--diag-durations`` (empty: skipped).
+and load) when ``--sweep-seeds 0``, else measured in this run by ``bench_sweeps.py``
+(serial vs ``--jobs 2`` vs local Ray, 10 seeds by default); the diagnosis memory per
+sample is measured in this run by the diagnosis scaling benchmark's child
+(``diagnosis_scaling.py``: a generated 500 Hz arm log per length, diagnosed in a fresh
+process; peak RSS above the RSS before, per sample), at the lengths of ``--diag-durations``
+(empty: skipped).
 
     .venv/bin/python benchmarks/bench_vector.py [--ns 1,16,256,1024] [--repeats 5] \
         [--budget 0.4] [--fresh 5] [--diag-durations 60,3600] \
@@ -226,19 +228,33 @@ def _fresh(runs: int) -> dict:
     return out
 
 
-def _elsewhere() -> dict:
+def _sweeps(seeds: int) -> dict:
+    """The sweep bar, measured in this run: ``bench_sweeps.py --seeds N`` in a child process
+    (serial vs a local process pool of 2 vs local Ray with 2 CPUs, one after the other);
+    with ``seeds == 0`` the numbers of ``results/bench_sweeps.json``'s own run instead."""
+    import tempfile
+
+    if seeds > 0:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "sweeps.json"
+            subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_sweeps.py"),
+                            "--seeds", str(seeds), "--out", str(out)], check=True, cwd=ROOT,
+                           stdout=subprocess.DEVNULL)
+            s = json.loads(out.read_text())
+        source = "measured in this run (benchmarks/bench_sweeps.py, child process)"
+        return {"sweeps": _sweep_row(s, source)}
     sweeps = RESULTS / "bench_sweeps.json"
-    res: dict = {}
     if sweeps.exists():
-        s = json.loads(sweeps.read_text())
-        res["sweeps"] = {"source": "benchmarks/results/bench_sweeps.json (its own run)",
-                         "seeds": s.get("seeds"), "case": s.get("case"),
-                         "wall_s": {k: v["wall_s"] for k, v in s["runs"].items()},
-                         "load_before": {k: v["load_before"] for k, v in s["runs"].items()},
-                         "identical_to_serial": s.get("identical_to_serial")}
-    else:
-        res["sweeps"] = "measured elsewhere (benchmarks/bench_sweeps.py); no JSON found"
-    return res
+        return {"sweeps": _sweep_row(json.loads(sweeps.read_text()),
+                                     "benchmarks/results/bench_sweeps.json (its own run)")}
+    return {"sweeps": "measured elsewhere (benchmarks/bench_sweeps.py); no JSON found"}
+
+
+def _sweep_row(s: dict, source: str) -> dict:
+    return {"source": source, "seeds": s.get("seeds"), "case": s.get("case"),
+            "wall_s": {k: v["wall_s"] for k, v in s["runs"].items()},
+            "load_before": {k: v["load_before"] for k, v in s["runs"].items()},
+            "identical_to_serial": s.get("identical_to_serial")}
 
 
 def _diagnosis(durations: list[float]) -> dict:
@@ -328,6 +344,8 @@ def main() -> None:
                     help="checkout of the filing commit: also time its sync env (sync_filed)")
     ap.add_argument("--filed-python", default=sys.executable,
                     help="interpreter for the --filed worker (default: this one)")
+    ap.add_argument("--sweep-seeds", type=int, default=10,
+                    help="seeds of the sweep bar run in this run (0: copy bench_sweeps.json)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     ns = [int(n) for n in args.ns.split(",")]
@@ -351,7 +369,7 @@ def main() -> None:
     res["single"] = _single(args.repeats, args.budget)
     res["fresh"] = _fresh(args.fresh) if args.fresh > 0 else {}
     res["load_after"] = os.getloadavg()
-    res.update(_elsewhere())
+    res.update(_sweeps(args.sweep_seeds))
     durations = [float(d) for d in args.diag_durations.split(",") if d.strip()]
     res["diagnosis_rss_per_sample"] = _diagnosis(durations) if durations else \
         "skipped (--diag-durations '')"
