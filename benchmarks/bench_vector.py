@@ -125,6 +125,11 @@ class _Filed:
         self.proc.wait()
 
 
+def _ratio(num: list, den: list) -> float:
+    """Median over repeats of the per-repeat ratio of CPU rates (same repeat, interleaved)."""
+    return statistics.median(a[1] / b[1] for a, b in zip(num, den, strict=True))
+
+
 def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int,
             filed: _Filed | None = None) -> dict:
     variants = [("native", False), ("native", True), ("sync", False), ("sync", True)]
@@ -157,23 +162,18 @@ def _vector(ns: list[int], repeats: int, budget: float, sync_max_n: int,
                 tag = f"{mode}_{'wrapped' if wrapped else 'bare'}"
                 row[tag] = statistics.median(r[0] for r in s)
                 row[f"{tag}_cpu"] = statistics.median(r[1] for r in s)
+            pairs = {}
             if ("sync", False) in samples:
-                row["ratio_native_over_sync_bare"] = statistics.median(
-                    a[1] / b[1] for a, b in zip(samples[("native", False)],
-                                                 samples[("sync", False)], strict=True))
-                row["ratio_native_over_sync_wrapped"] = statistics.median(
-                    a[1] / b[1] for a, b in zip(samples[("native", True)],
-                                                 samples[("sync", True)], strict=True))
+                pairs["ratio_native_over_sync_bare"] = (("native", False), ("sync", False))
+                pairs["ratio_native_over_sync_wrapped"] = (("native", True), ("sync", True))
             if with_filed:
-                row["ratio_native_over_sync_filed_bare"] = statistics.median(
-                    a[1] / b[1] for a, b in zip(samples[("native", False)],
-                                                 samples[("sync_filed", False)], strict=True))
-                row["ratio_sync_over_sync_filed_bare"] = statistics.median(
-                    a[1] / b[1] for a, b in zip(samples[("sync", False)],
-                                                 samples[("sync_filed", False)], strict=True))
-            row["ratio_wrapped_over_bare_native"] = statistics.median(
-                a[1] / b[1] for a, b in zip(samples[("native", True)],
-                                             samples[("native", False)], strict=True))
+                pairs["ratio_native_over_sync_filed_bare"] = (("native", False),
+                                                              ("sync_filed", False))
+                pairs["ratio_sync_over_sync_filed_bare"] = (("sync", False),
+                                                            ("sync_filed", False))
+            pairs["ratio_wrapped_over_bare_native"] = (("native", True), ("native", False))
+            for ratio, (a, b) in pairs.items():
+                row[ratio] = _ratio(samples[a], samples[b])
             rows[str(n)] = row
             for e in envs.values():
                 e.close()
