@@ -26,6 +26,9 @@ def register(app: typer.Typer) -> None:
             "--seed", help="Seed of envs and identifier weights.")] = 0,
         timing_runs: Annotated[int | None, typer.Option(
             "--timing-runs", help="Timing runs per method (default 100, quick 3).")] = None,
+        no_timing: Annotated[bool, typer.Option(
+            "--no-timing", help="Skip the timing part of --case all (a --seeds sweep never "
+            "times).")] = False,
         seeds: Annotated[str | None, typer.Option(
             "--seeds", help="Sweep over seeds, e.g. 0-99 or 0,3,5-7: one run per seed and "
             "case (--case 1,2-1 or all, no timing) and OUT/summary.md.")] = None,
@@ -68,7 +71,7 @@ def register(app: typer.Typer) -> None:
 
             try:
                 res = run(out, case=case, quick=quick, seed=seed, timing_runs=timing_runs,
-                          progress=progress,
+                          progress=progress, timing=not no_timing,
                           log=lambda m: bar.console.print(line(m), markup=False, highlight=False,
                                                           soft_wrap=True))
             except SimgapError as exc:  # EvaluationError, OutputError

@@ -48,7 +48,8 @@ def _plan(case: str) -> tuple[list[str], bool]:
 
 def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: int = 0,
               timing_runs: int | None = None, progress: Progress | None = None,
-              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+              log: Callable[[str], None] | None = None, timing: bool = True
+              ) -> dict[str, Any]:
     """Run cases and/or timing and write ``results.json``, ``report.md`` and PNGs to ``out``.
 
     Args:
@@ -61,6 +62,7 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
         timing_runs: timing runs per method (default 100, quick 3).
         progress: callback ``progress(task, done, total)``.
         log: callback for one-line messages.
+        timing: False skips the timing part of ``case="all"`` (``--no-timing``).
 
     Returns:
         The results dict (as written to ``results.json``) with ``"files"``: written paths.
@@ -75,6 +77,10 @@ def reproduce(out: Path | str, *, case: str = "all", quick: bool = False, seed: 
     from simgap.evaluation.timing import run_timing
 
     names, do_timing = _plan(case)
+    if not timing:
+        if not names:
+            raise EvaluationError("--no-timing with --case timing leaves nothing to run")
+        do_timing = False
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise EvaluationError(f"--seed must be a non-negative integer, got {seed!r}")
     if timing_runs is not None and (isinstance(timing_runs, bool)

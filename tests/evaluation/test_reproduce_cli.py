@@ -88,3 +88,19 @@ def test_full_case_1_runs_all_methods_without_divergence():
     assert not cr.diverged
     for m in cr.metrics[cr.primary_variant].values():
         assert np.isfinite(m["accuracy"]) and set(m["consistency"]) == {"180", "220"}
+
+
+def test_no_timing_as_the_issue_spells_the_sweep_and_refuses_timing_alone(tmp_path):
+    # issue 17's command line: `reproduce --seeds ... --case ... --no-timing --jobs N` (a
+    # sweep never times, so the flag is accepted as is)
+    out = tmp_path / "sweep"
+    res = runner.invoke(app, ["reproduce", "--seeds", "0", "--case", "2-1", "--quick",
+                              "--no-timing", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert (out / "summary.md").exists()
+    # nothing left to run: one line, exit 2, nothing written
+    bad = tmp_path / "bad"
+    res = runner.invoke(app, ["reproduce", "--case", "timing", "--no-timing", "--out", str(bad)])
+    assert res.exit_code == 2
+    assert "--no-timing with --case timing" in res.output
+    assert not bad.exists()
