@@ -313,12 +313,27 @@ def effects_of(report: Any) -> dict[tuple[str, str], dict[str, Any]]:
     return {(e["effect"], e["channel"]): e for e in report.data["effects"]}
 
 
+#: Constant effects: on one direction of motion they are the same regressor as a friction
+#: whose sign follows the direction, so a report that says so has said why for them too.
+CONSTANT_EFFECTS = ("torque_bias", "lateral_bias", "yaw_bias")
+
+
 def _said_why(report: Any, effect: str, channel: str) -> str | None:
-    """The report's own reason when ``effect`` at ``channel`` is not named, else None."""
+    """The report's own reason when ``effect`` at ``channel`` is not named, else None.
+
+    A "No mismatch beyond the noise" verdict never says why: it claims the nominal model
+    explains the log.
+    """
+    if report.data.get("verdict", "").startswith("No mismatch"):
+        return None
     for t in report.data.get("tried", []):
         if t["effect"] == effect and t.get("channel") == channel and t.get("decision") in (
                 "not identifiable", "combination", "cannot test"):
             return f"{t['decision']}: {t.get('reason', '')}"[:200]
+    if effect in CONSTANT_EFFECTS:
+        for t in report.data.get("tried", []):
+            if t.get("channel") == channel and "one direction" in str(t.get("reason", "")):
+                return f"one direction: {t['reason']}"[:200]
     v = report.data.get("verdict", "")
     if effect in v and ("Not identifiable" in v or "Not determined" in v):
         return "verdict: not identifiable / not determined"

@@ -169,7 +169,8 @@ class FitResult:
         terms: the terms.
         lin: linear parameters per term.
         nl: nonlinear parameters per term.
-        cov: covariance of all parameters (per term: linear then nonlinear, in term order).
+        cov: covariance of all parameters (per term: linear then nonlinear, in term order),
+            inflated by the fit residual's autocorrelation time ``tau``.
         pred: filtered contribution of each term on the full grid, (N, C) each, or on the
             grid rows :attr:`rows` only.
         sse_test: whitened squared error on the outer test rows.
@@ -598,7 +599,13 @@ class Fitter:
         jac = np.stack(cols, axis=1) if n_p else np.zeros((len(res_tr), 0))
         jac = (jac.reshape(len(rows), self.c, n_p) / scale[None, :, None]).reshape(
             len(res_tr), n_p)
-        cov = np.linalg.pinv(jac.T @ jac) if n_p else np.zeros((0, 0))
+        # the residual left on the fit rows is correlated (structure error: τ = 84 rows on
+        # the real EMPS log), so it holds N/τ independent samples: the covariance is
+        # inflated by τ, as every held-out test and the identifiability check count them
+        # (a white-noise covariance made parameters of two halves of one log differ by
+        # 4-7 "standard errors")
+        tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
+        cov = np.linalg.pinv(jac.T @ jac) * tau if n_p else np.zeros((0, 0))
         lins, i = [], 0
         for t in terms:
             k = len(t.effect.lin)
@@ -615,7 +622,6 @@ class Fitter:
         def sse(part):
             e = ((self.r[part] - total[part if full else self.at(part)]) * self.w).ravel()
             return float(e @ e)
-        tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
         return FitResult(terms=terms, lin=lins, nl=nls, cov=cov, pred=pred,
                          sse_test=sse(self.test), sse_train=sse(rows),
                          sse_valid=sse(self.valid), jac=jac, tau=float(tau), s2=s2,
