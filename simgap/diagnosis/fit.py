@@ -989,6 +989,7 @@ class Fitter:
         current = self._identify(current, sel, tried)
         current = self._separate_aliases(current, sel, tried)
         final = self._confirm(current, sel, tried)
+        self._warn_direction_dependence(final, sel)
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
                 tried[(t.key,)]["params"] = _params(final, i)
@@ -1503,6 +1504,60 @@ class Fitter:
                                  "text": text})
             current = self._drop(current, i)
         return current
+
+    def _warn_direction_dependence(self, final: FitResult, sel: Selection) -> None:
+        """Say when a named one-regressor effect has a different size in each direction.
+
+        Each named term with one linear regressor (not a constant: those are demoted by
+        :meth:`_demote_flips`) is refitted on each side of every operating rate that takes
+        both signs, the others held at their fitted values. Sizes that differ by more than
+        ``FLIP_Z`` standard errors of the difference (N/τ effective samples) mean a
+        direction-dependent effect outside the vocabulary; the named value is their
+        average over the log. Measured on the real EMPS log: viscous b = 167 where q̇ > 0
+        and 240 where q̇ < 0 (the published asymmetric friction), named b = 205; a log of
+        one direction only gives that direction's value. A warning, nothing is dropped.
+        """
+        rates = self._rates()
+        if not rates:
+            return
+        for i, t in enumerate(final.terms):
+            if t.key in self.combinations or len(final.lin[i]) != 1 or t.effect.nl \
+                    or self._constant(t, final.nl[i]):
+                continue
+            cols = self.basis(t, final.nl[i])[0]
+            if cols.shape[2] != 1:
+                continue
+            sc = self.w / final.scale
+            x = cols[self.at(self.fit_rows), :, 0] * sc
+            others = final.total(self.n, self.c) - final.pred[i]
+            e = (self.r[self.fit_rows] - self.on(final, others, self.fit_rows)) * sc
+            # a free offset per side on the term's channels: on one side a Coulomb
+            # friction and a bias are one constant, and held at their two-sided values
+            # they would hide the difference (EMPS: 198 / 212 instead of 167 / 240)
+            const = np.broadcast_to(np.where(np.any(x != 0, axis=0), sc, 0.0), x.shape)
+            for name, v in rates.items():
+                est = []
+                for side in (v > 0, v < 0):
+                    a = np.column_stack([x[side].ravel(), const[side].ravel()])
+                    gram = a.T @ a
+                    if np.linalg.matrix_rank(gram) < 2:
+                        est.append((0.0, np.inf))
+                        continue
+                    cov = np.linalg.inv(gram) * final.tau
+                    est.append((float(np.linalg.solve(gram, a.T @ e[side].ravel())[0]),
+                                float(np.sqrt(cov[0, 0]))))
+                (bp, sp), (bn, sn) = est
+                if not np.isfinite(sp + sn) or abs(bp - bn) <= FLIP_Z * np.hypot(sp, sn):
+                    continue
+                par = t.effect.lin[0]
+                sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                     "text": (
+                    f"{t.effect.label} at {t.channel} depends on the direction of {name}: "
+                    f"fitted separately, {par} = {bp:.4g} ± {sp:.2g} where {name} > 0 and "
+                    f"{bn:.4g} ± {sn:.2g} where {name} < 0 (parameter units); the named "
+                    "value is their average over this log (a direction-dependent effect "
+                    "outside the vocabulary: located, not named)")})
+                break
 
     def _direction_offset_errors(self, without: FitResult) -> np.ndarray | None:
         """Validation errors of ``without`` plus the best direction-following offset probe.

@@ -74,6 +74,25 @@ def test_one_direction_gives_that_directions_friction_and_cannot_tell_coulomb(em
         assert b == pytest.approx(fv, rel=0.05)
 
 
+def test_whole_log_says_the_viscous_friction_depends_on_direction() -> None:
+    """The whole EMPS log names a symmetric b (their average); the report also says that b
+    differs with the direction of motion, with each side near the published asymmetric
+    values, so the one-direction answers above are explained by the whole log's report."""
+    import re
+
+    from simgap.diagnosis.pipeline import diagnose
+
+    shared_path("data", "real", "emps", "emps_estimation.csv")
+    report = diagnose(deg.load_emps(), deg.EMPS_SPEC)
+    texts = [w["text"] for w in report.data["warnings"]
+             if "depends on the direction of dq" in w["text"]]
+    assert len(texts) == 1 and texts[0].startswith("viscous friction at joint1"), texts
+    bp, bn = (float(x) for x in re.findall(r"([0-9.]+) ± [0-9.]+ where dq", texts[0]))
+    assert bp == pytest.approx(FV_PLUS, rel=0.1) and bn == pytest.approx(FV_MINUS, rel=0.1)
+    assert {e["effect"] for e in report.effects} == {"viscous_friction", "coulomb_friction",
+                                                     "torque_bias"}
+
+
 def test_short_race_car_piece_says_cannot_tell() -> None:
     """20 s of the race car (17 % of it above 8 m/s²): the residual is 15x the noise floor
     and no effect can be tested on the held-out part. The verdict says so instead of "No
