@@ -169,7 +169,8 @@ class FitResult:
         terms: the terms.
         lin: linear parameters per term.
         nl: nonlinear parameters per term.
-        cov: covariance of all parameters (per term: linear then nonlinear, in term order).
+        cov: covariance of all parameters (per term: linear then nonlinear, in term order),
+            inflated by the fit residual's autocorrelation time ``tau``.
         pred: filtered contribution of each term on the full grid, (N, C) each, or on the
             grid rows :attr:`rows` only.
         sse_test: whitened squared error on the outer test rows.
@@ -598,7 +599,13 @@ class Fitter:
         jac = np.stack(cols, axis=1) if n_p else np.zeros((len(res_tr), 0))
         jac = (jac.reshape(len(rows), self.c, n_p) / scale[None, :, None]).reshape(
             len(res_tr), n_p)
-        cov = np.linalg.pinv(jac.T @ jac) if n_p else np.zeros((0, 0))
+        # the residual left on the fit rows is correlated (structure error: τ = 84 rows on
+        # the real EMPS log), so it holds N/τ independent samples: the covariance is
+        # inflated by τ, as every held-out test and the identifiability check count them
+        # (a white-noise covariance made parameters of two halves of one log differ by
+        # 4-7 "standard errors")
+        tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
+        cov = np.linalg.pinv(jac.T @ jac) * tau if n_p else np.zeros((0, 0))
         lins, i = [], 0
         for t in terms:
             k = len(t.effect.lin)
@@ -615,7 +622,6 @@ class Fitter:
         def sse(part):
             e = ((self.r[part] - total[part if full else self.at(part)]) * self.w).ravel()
             return float(e @ e)
-        tau = max([autocorrelation_time(res2[:, j]) for j in range(self.c)] + [1.0])
         return FitResult(terms=terms, lin=lins, nl=nls, cov=cov, pred=pred,
                          sse_test=sse(self.test), sse_train=sse(rows),
                          sse_valid=sse(self.valid), jac=jac, tau=float(tau), s2=s2,
@@ -983,6 +989,7 @@ class Fitter:
         current = self._identify(current, sel, tried)
         current = self._separate_aliases(current, sel, tried)
         final = self._confirm(current, sel, tried)
+        self._warn_direction_dependence(final, sel)
         for i, t in enumerate(final.terms):
             if (t.key,) in tried:
                 tried[(t.key,)]["params"] = _params(final, i)
@@ -1497,6 +1504,60 @@ class Fitter:
                                  "text": text})
             current = self._drop(current, i)
         return current
+
+    def _warn_direction_dependence(self, final: FitResult, sel: Selection) -> None:
+        """Say when a named one-regressor effect has a different size in each direction.
+
+        Each named term with one linear regressor (not a constant: those are demoted by
+        :meth:`_demote_flips`) is refitted on each side of every operating rate that takes
+        both signs, the others held at their fitted values. Sizes that differ by more than
+        ``FLIP_Z`` standard errors of the difference (N/τ effective samples) mean a
+        direction-dependent effect outside the vocabulary; the named value is their
+        average over the log. Measured on the real EMPS log: viscous b = 167 where q̇ > 0
+        and 240 where q̇ < 0 (the published asymmetric friction), named b = 205; a log of
+        one direction only gives that direction's value. A warning, nothing is dropped.
+        """
+        rates = self._rates()
+        if not rates:
+            return
+        for i, t in enumerate(final.terms):
+            if t.key in self.combinations or len(final.lin[i]) != 1 or t.effect.nl \
+                    or self._constant(t, final.nl[i]):
+                continue
+            cols = self.basis(t, final.nl[i])[0]
+            if cols.shape[2] != 1:
+                continue
+            sc = self.w / final.scale
+            x = cols[self.at(self.fit_rows), :, 0] * sc
+            others = final.total(self.n, self.c) - final.pred[i]
+            e = (self.r[self.fit_rows] - self.on(final, others, self.fit_rows)) * sc
+            # a free offset per side on the term's channels: on one side a Coulomb
+            # friction and a bias are one constant, and held at their two-sided values
+            # they would hide the difference (EMPS: 198 / 212 instead of 167 / 240)
+            const = np.broadcast_to(np.where(np.any(x != 0, axis=0), sc, 0.0), x.shape)
+            for name, v in rates.items():
+                est = []
+                for side in (v > 0, v < 0):
+                    a = np.column_stack([x[side].ravel(), const[side].ravel()])
+                    gram = a.T @ a
+                    if np.linalg.matrix_rank(gram) < 2:
+                        est.append((0.0, np.inf))
+                        continue
+                    cov = np.linalg.inv(gram) * final.tau
+                    est.append((float(np.linalg.solve(gram, a.T @ e[side].ravel())[0]),
+                                float(np.sqrt(cov[0, 0]))))
+                (bp, sp), (bn, sn) = est
+                if not np.isfinite(sp + sn) or abs(bp - bn) <= FLIP_Z * np.hypot(sp, sn):
+                    continue
+                par = t.effect.lin[0]
+                sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
+                                     "text": (
+                    f"{t.effect.label} at {t.channel} depends on the direction of {name}: "
+                    f"fitted separately, {par} = {bp:.4g} ± {sp:.2g} where {name} > 0 and "
+                    f"{bn:.4g} ± {sn:.2g} where {name} < 0 (parameter units); the named "
+                    "value is their average over this log (a direction-dependent effect "
+                    "outside the vocabulary: located, not named)")})
+                break
 
     def _direction_offset_errors(self, without: FitResult) -> np.ndarray | None:
         """Validation errors of ``without`` plus the best direction-following offset probe.

@@ -485,6 +485,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
                  for k in fitter.combinations}]
     mismatch = bool(entries) or bool(undetermined) or bool(combined) or any(
         s.significant and g.significant(level) for s, g in zip(stats, structure, strict=True))
+    untested = [] if mismatch else untested_channels(stats, sel.tried, system)
     hit_channels = {e["channel"] for e in undetermined + combined}
     stats = [dataclasses.replace(s, significant=(s.significant and mismatch)
                                  or s.channel in hit_channels) for s in stats]
@@ -555,7 +556,7 @@ def _run(rec: Recording, system: Any, horizon: float | None,
         "identifiability": sel.identifiability,
         "verdict": verdict(entries, stats, system, unexplained if base > 0 and any(
             e["testable_held_out"] for e in entries) else None,
-            bool(undetermined or combined)),
+            bool(undetermined or combined), untested=untested),
         "fit": {
             "split": {"train": [float(t[0]), fitter.t_split],
                       "test": [fitter.t_split, float(t[-1])],
@@ -706,15 +707,47 @@ def _jsonable(entry: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def untested_channels(stats: list[locate.ChannelStat], tried: list[dict], system: Any
+                      ) -> list[tuple[locate.ChannelStat, str]]:
+    """Channels whose residual exceeds the noise floor where no effect could be tested.
+
+    "No mismatch beyond the noise" is an answer only where something was tested. A
+    channel whose residual RMS is above ``locate.SIGNIFICANCE`` × its noise floor, and every
+    effect tried there (or vehicle/arm-wide) was "cannot test" (the held-out part holds
+    too few effective samples), is undecided: measured on a 20 s piece of the real race-car
+    log, residual 15x the noise floor on the front axle, every candidate "cannot test" with
+    3-4 effective held-out samples, and the verdict said the nominal model explained it.
+
+    Returns:
+        (channel stat, the first "cannot test" reason there) per such channel.
+    """
+    out = []
+    for s in stats:
+        if not s.significant:
+            continue
+        here = [e for e in tried if e.get("channel") in (s.channel, "vehicle", "arm", None)]
+        if here and all(e.get("decision") == "cannot test" for e in here):
+            out.append((s, str(here[0].get("reason", "cannot test"))))
+    return out
+
+
 def verdict(entries: list[dict], stats: list[locate.ChannelStat], system: Any,
-            unexplained: float | None, undetermined: bool = False) -> str:
+            unexplained: float | None, undetermined: bool = False, *,
+            untested: list[tuple[locate.ChannelStat, str]] | None = None) -> str:
     """One line: is there a mismatch, what is named, what is left.
 
     ``undetermined``: a term passed its held-out test but its parameters are not
-    determined (said after this line).
+    determined (said after this line). ``untested``: channels whose residual is above
+    the noise floor where no effect could be tested (:func:`untested_channels`).
     """
     hit = [_channel_label(s.channel) for s in stats if s.significant]
     if not entries:
+        if not hit and untested:
+            where = ", ".join(f"{_channel_label(s.channel)} ({s.residual_rms / s.noise_rms:.3g}x "
+                              "its noise floor)" for s, _ in untested)
+            return (f"Cannot tell: the residual at {where} is above the noise, but no effect "
+                    f"could be tested held out ({untested[0][1]}); record longer or more "
+                    "varied motion.")
         if not hit:
             return "No mismatch beyond the noise: the nominal model explains this recording."
         why = ("what fits it held out is not determined by the data" if undetermined else

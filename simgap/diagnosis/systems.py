@@ -775,7 +775,6 @@ class MechanicalSystem:
                                                or _quantised(models[v]))]
         if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
             noise = {k: noise_std(v) for k, v in raw.items()}
-            from_q = not c.dq
         plan, pre, vel_noise = self._plan(raw, dt, bounds, noise, from_q)
         plan, hold_note = self._choose_hold(raw, plan)
         warn += [hold_note] if hold_note else []

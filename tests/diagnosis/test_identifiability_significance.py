@@ -109,3 +109,27 @@ def test_blocks_stay_inside_segments():
     split = predictive_gain(e0, e1, segments=seg)
     assert split.blocks <= whole.blocks
     assert split.testable and split.p_value < 1e-3
+
+
+def test_correlated_pair_whose_sizes_cancel_is_still_determined():
+    """Viscous and Coulomb friction on a back-and-forth motion (real EMPS at 100 Hz).
+
+    Their regressors (q̇ and sign q̇) are correlated +0.94; with b·‖q̇‖ ≈ Fc·‖sign q̇‖ the
+    signed projection of the fitted values on the weak direction is ≈ 0, yet each parameter
+    is determined to a few per cent. A signed-projection test called the pair "not
+    determined" and b alone then took the Coulomb force (b = 414 N·s/m instead of 205).
+    """
+    t = np.arange(0.0, 25.0, 0.01)
+    v = 0.1 * np.clip(2.0 * np.sin(2 * np.pi * t / 6.2), -1.0, 1.0)   # trapezoid, m/s
+    j = np.column_stack([v, np.sign(v), np.ones_like(v)])
+    assert np.corrcoef(v, np.sign(v))[0, 1] > 0.9
+    fc = 20.0
+    b = fc * np.linalg.norm(j[:, 1]) / np.linalg.norm(j[:, 0])        # equal scaled sizes
+    values = [b, fc, -3.0]
+    noise = 0.02 * fc * np.sqrt(v.size)   # marginal standard errors of a few per cent
+    se = noise * np.sqrt(np.diag(np.linalg.inv(j.T @ j)))
+    assert np.all(se[:2] / np.abs(values[:2]) < 0.1)
+    assert analyse(j, ["b", "Fc", "tau0"], noise_std=noise, values=values).identifiable
+    # the same pair with sizes the noise swamps is still flagged
+    small = [0.02 * b, 0.02 * fc, -3.0]
+    assert not analyse(j, ["b", "Fc", "tau0"], noise_std=noise, values=small).identifiable
