@@ -978,6 +978,7 @@ class Fitter:
             done = {t.key for t in hyp}
             remaining = [t for t in remaining if t.key not in done]
         current = self._prune(current, sel, tried)
+        current = self._simplest_members(current, sel, tried, candidates)
         current = self._demote_flips(current, sel, tried)
         current = self._demote_direction_offsets(current, sel, tried)
         current = self._identify(current, sel, tried)
@@ -1302,6 +1303,111 @@ class Fitter:
             self._forget(sel, t)
             current = f
         return current
+
+    def _simplest_members(self, current: FitResult, sel: Selection, tried: dict,
+                          candidates: Sequence[Term]) -> FitResult:
+        """Name the simplest description of a declared symmetry that explains the data as well.
+
+        A system's ``symmetries`` (:class:`.identifiability.Symmetry`: a vehicle's mass, yaw
+        inertia and both tire laws scaled together leave the motion unchanged) give one
+        motion several descriptions: cornering-stiffness ratios of 0.87 on both axles and a
+        yaw-inertia ratio of 0.87 are a mass ratio of 1.15 (all × 1/0.87). The forward
+        selection ends on whichever it met first. Each smaller equivalent member set
+        (:meth:`.identifiability.Symmetry.replacements`) is fitted in place of the chosen
+        members, the other terms refitted beside it; it replaces them when the backward
+        pass's test does not reject it (held-out likelihood ratio on the validation blocks,
+        χ² with the parameters it saves, :data:`ALPHA` shared by the terms), no parameter
+        sits on a plausibility limit and its new members pass the structural checks
+        (:meth:`_structural`: determined with their symmetry partners freed; where the data
+        cannot tell the members apart the chosen description stays, with that check's
+        combination). Fewest terms first; among as few, the smallest held-out error.
+        """
+        for sym in getattr(self.sys, "symmetries", ()):
+            while True:
+                chosen = [t for t in current.terms if sym.includes(t.effect.name)]
+                if not chosen or any(t.key in self.combinations for t in chosen):
+                    break
+                members = {c.key: c for c in candidates if sym.includes(c.effect.name)}
+                members.update({t.key: t for t in chosen})
+                found = self._replacement(current, sym, chosen, members, candidates)
+                if found is None:
+                    break
+                current = self._replace(current, sel, tried, sym, chosen, *found)
+        return current
+
+    def _replacement(self, current: FitResult, sym: Any, chosen: list[Term],
+                     members: dict[tuple, Term], candidates: Sequence[Term]
+                     ) -> tuple[FitResult, float] | None:
+        """The smallest member set of ``sym`` that explains the data as well (see above).
+
+        Returns:
+            (its fit, the test's p-value), or None.
+        """
+        alpha = ALPHA / len(current.terms)
+        base = self._errors(current, self.valid)
+        best: tuple[int, float, FitResult, float] | None = None
+        for keys in sym.replacements([t.key for t in chosen], list(members)):
+            if best is not None and len(keys) > best[0]:
+                break
+            kept = [i for i, t in enumerate(current.terms)
+                    if not sym.includes(t.effect.name) or t.key in keys]
+            added = [members[k] for k in keys if k not in {t.key for t in chosen}]
+            start = dataclasses.replace(current, terms=[current.terms[i] for i in kept],
+                                        nl=[current.nl[i] for i in kept])
+            ctx = self.ctx
+            alt = self.fit_new(start, added, full=False)
+            self.ctx = ctx
+            saved = sum(t.effect.n_params for t in current.terms) - \
+                sum(t.effect.n_params for t in alt.terms)
+            if saved < 1 or self.at_limit(alt):
+                continue
+            errors = self._errors(alt, self.valid)
+            g = likelihood_ratio(errors, base, saved)
+            p = g.p_value if g.testable else 0.0
+            if p < alpha or self._structural(alt, tuple(added), candidates):
+                continue
+            sse = float(np.sum(errors**2))
+            if best is None or sse < best[1]:
+                best = (len(keys), sse, alt, p)
+        return None if best is None else (best[2], best[3])
+
+    def _replace(self, current: FitResult, sel: Selection, tried: dict, sym: Any,
+                 chosen: list[Term], alt: FitResult, p: float) -> FitResult:
+        """Record ``alt``'s members of ``sym`` replacing ``chosen`` (:meth:`_simplest_members`)."""
+        gone = [t for t in chosen if t not in alt.terms]
+        added = [t for t in alt.terms if sym.includes(t.effect.name) and t not in chosen]
+        old = ", ".join(f"{t.effect.label} at {t.channel} ({_ratio_text(current, t)})"
+                        for t in chosen)
+        new = ", ".join(f"{t.effect.label} at {t.channel} ({_ratio_text(alt, t)})"
+                        for t in alt.terms if sym.includes(t.effect.name)) or "the nominal"
+        text = (f"{old} and {new} describe the same motion ({sym.description} leave it "
+                f"unchanged) and explain the held-out data as well (p = {p:.2g} for the "
+                "larger set's gain): the simplest description is named")
+        for t in gone:
+            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                                "params": _params(current,
+                                                                  current.terms.index(t)),
+                                                "gain": 0.0, "test": TEST_NAME,
+                                                "statistic": None, "p_value": None})
+            entry.update(decision="removed", reason=text)
+            self._forget(sel, t)
+            sel.history.append({"term": t.label, "removed": True, "p_value": float(p)})
+        if added:
+            keep = [i for i, t in enumerate(alt.terms) if t not in added]
+            without = self.fit([alt.terms[i] for i in keep], [alt.nl[i] for i in keep],
+                               full=False)
+            g = likelihood_ratio(self._errors(without, self.valid),
+                                 self._errors(alt, self.valid),
+                                 sum(t.effect.n_params for t in added))
+            for t in added:
+                entry = tried.setdefault((t.key,), {"effect": t.effect.name,
+                                                    "channel": t.channel, "test": TEST_NAME})
+                entry.update(params=_params(alt, alt.terms.index(t)), gain=g.share_removed,
+                             statistic=g.statistic, p_value=g.p_value, decision="named",
+                             reason=text, _hyp=(t,))
+                sel.history.append({"term": t.label, "gain": float(g.share_removed),
+                                    "p_value": float(g.p_value), "accepted": True})
+        return alt
 
     def _directions(self) -> dict[str, float]:
         """Share of the fit rows on which each direction variable is positive.
