@@ -864,7 +864,7 @@ class Fitter:
             # prediction per hypothesis. The pick is refitted below (the same numbers).
             trials, held = [], []
             for h in hyps:
-                f = self.fit_new(current, h, full=False)
+                f = self._displaced(h, self.fit_new(current, h, full=False))
                 held.append((self._errors(f, self.valid),
                              self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
                              else None,
@@ -907,7 +907,7 @@ class Fitter:
             pick = self._nested_pick(pick, ok, trials, held, evals)
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
-            fit = self.fit_new(current, hyp, full=False)
+            fit = self._displaced(hyp, self.fit_new(current, hyp, full=False))
             self.ctx = ctx
             blocked = self._structural(fit, hyp, candidates)
             alt = self._lookalike(hyp, blocked, ok, trials, gains) if blocked else None
@@ -915,7 +915,8 @@ class Fitter:
                 # the pick is not identifiable here, but a declared look-alike of it at its
                 # channel (a dead zone's torque bias) is significant in this round: that is
                 # the identifiable form of the same residual, so it is tried instead
-                alt_fit = self.fit_new(current, trials[alt][0], full=False)
+                alt_fit = self._displaced(trials[alt][0],
+                                          self.fit_new(current, trials[alt][0], full=False))
                 self.ctx = ctx
                 if not self._structural(alt_fit, trials[alt][0], candidates):
                     evals[pick]["_nested"] = (
@@ -930,6 +931,7 @@ class Fitter:
                         f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
                         "round (a larger gain, or as large with fewer parameters)"
                         + evals[i].get("_nested", ""))
+            self._record_displaced(current, fit, hyp, sel, tried)
             if blocked:
                 # not identifiable as such on this data: fitted (the identifiable combination
                 # it carries is part of the model, so that no other term stands in for it)
@@ -996,6 +998,53 @@ class Fitter:
         sel.tried = [{k: v for k, v in e.items() if not k.startswith("_")}
                      for e in tried.values()]
         return sel
+
+    @staticmethod
+    def _vanished(term: Term, nl: np.ndarray) -> bool:
+        """Whether a nonlinear coordinate sits on the bound where the effect is the nominal.
+
+        ``nl_vanishes`` of the effect (:class:`~simgap.models.effects.FitSpec`), within the
+        tolerance of :meth:`at_limit`.
+        """
+        for v, side, (lo, hi) in zip(nl, term.effect.nl_vanishes, term.effect.nl_bounds,
+                                         strict=False):   # nl_vanishes may be empty
+            tol = 1e-3 * (hi - lo)
+            if (side == "high" and v >= hi - tol) or (side == "low" and v <= lo + tol):
+                return True
+        return False
+
+    def _displaced(self, hyp: tuple[Term, ...], fit: FitResult) -> FitResult:
+        """``fit`` (the chosen terms plus ``hyp``) without the chosen terms ``hyp`` displaced.
+
+        A term chosen in an earlier round as a stand-in (both axles' saturation for a mass
+        ratio and a steering lag) is pushed by the right hypothesis onto the bound where it
+        vanishes (``nl_vanishes``: μ = 3, a linear tire). That is the earlier term made
+        unnecessary, not the hypothesis forcing a parameter onto its plausibility limit
+        (:meth:`at_limit`, which rejected the hypothesis): the hypothesis is refitted and
+        tested without it. Returns ``fit`` itself when nothing vanished.
+        """
+        keep = [i for i, t in enumerate(fit.terms) if t in hyp or not self._vanished(t, fit.nl[i])]
+        if len(keep) == len(fit.terms):
+            return fit
+        return self.fit([fit.terms[i] for i in keep], [fit.nl[i] for i in keep], full=False)
+
+    def _record_displaced(self, current: FitResult, fit: FitResult, hyp: tuple[Term, ...],
+                          sel: Selection, tried: dict) -> None:
+        """Record the chosen terms that the pick ``hyp`` displaced (:meth:`_displaced`)."""
+        for i, t in enumerate(current.terms):
+            if t in fit.terms:
+                continue
+            text = (f"made unnecessary by {'+'.join(u.label for u in hyp)}: fitted beside it, "
+                    f"{t.effect.label} at {t.channel} went to the bound where it is the "
+                    "nominal")
+            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                                "params": _params(current, i), "gain": 0.0,
+                                                "test": TEST_NAME, "statistic": None,
+                                                "p_value": None})
+            entry.update(decision="removed", reason=text)
+            self._forget(sel, t)
+            self.combinations.pop(t.key, None)
+            sel.history.append({"term": t.label, "removed": True})
 
     @staticmethod
     def _nests(big: tuple[Term, ...], small: tuple[Term, ...]) -> bool:
