@@ -66,6 +66,15 @@ channels at once (``EffectSpec.all_channels``: one road μ) are also tried on al
 together, so that a vehicle-scope term gaining on both axles with one parameter does not
 beat them axle by axle.
 
+A hypothesis that pushes an already chosen term onto the bound where that term is the
+nominal (``FitSpec.nl_vanishes``: μ = 3, a linear tire) displaces it: it is refitted and
+tested without it (:meth:`Fitter._displaced`; the earlier term is "removed"). After the
+backward pass, a system's declared symmetries (``symmetries``,
+:class:`.identifiability.Symmetry`: mass, yaw inertia and both tire laws scaled together)
+are answered by their simplest member set that explains the validation blocks as well
+(:meth:`Fitter._simplest_members`: three tire/inertia ratios of 0.87 are one mass ratio of
+1.15).
+
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
 bound is negative); nonlinear ones (Stribeck vs, tire mu, steering lag tau) by
