@@ -89,8 +89,49 @@ def test_three_scale_equivalent_is_replaced_by_the_mass_ratio() -> None:
     assert {tried[(k,)]["decision"] for k in (CF, CR, IZ)} == {"removed"}
 
 
-@pytest.mark.parametrize("seed", [4, 8] if not SLOW else list(range(10)))
+@pytest.mark.parametrize("seed", [3, 4, 8] if not SLOW else list(range(10)))
 def test_steering_lag_and_mass_pair_named(seed: int) -> None:
+    """Seed 4: the three-scale equivalent before; seed 3: both axles' saturation stood in
+    (mass then pushed them to μ = 3, the linear tire, and was rejected as 'on a limit')."""
     res = run_case(PAIR, "bicycle", seed, duration=40.0)
     assert res.named and res.param_error <= 0.02 and not res.extra, \
         [(f["effect"], f["channel"]) for f in res.found]
+
+
+def _joint_scale(p, sig) -> np.ndarray:
+    """Cornering-stiffness ratios and mass ratio fitted together (whitened least squares)."""
+    from simgap.models.bicycle import VOCABULARY
+    form = BicycleSystem()
+    ctx = form.context(p)
+    fits = {s.name: s.fit for s in VOCABULARY}
+    ok = p.valid & p.fit_mask[:, 0]
+    w = 1.0 / p.noise_rms
+    one = np.ones(1)
+    cols = [fits["cornering_stiffness"].fn(one, (), sig, i, ctx) for i in (0, 1)]
+    cols.append(fits["mass_mismatch"].fn(one, (), sig, None, ctx))
+    x = np.column_stack([(c * w)[ok].ravel() for c in cols])
+    coef, *_ = np.linalg.lstsq(x, (p.residual * w)[ok].ravel(), rcond=None)
+    return 1.0 + coef
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_slip_angle_noise_is_what_shrank_the_joint_scale(seed: int) -> None:
+    """Item 2 of the s7 log (the stiffness terms 2-3 % low): with the *exact* ay as the mass
+    regressor, the measured slip angles shrink the joint scale to ≈ 0.9 (their filtered-state
+    noise is in the residual too); instrumented like the accelerations, within 2 % of 1."""
+    import functools
+
+    import simgap.diagnosis.scenarios as sc
+    rec = sc.circles([], 500 + seed).recording
+    orig = sc.generate_bicycle
+    sc.generate_bicycle = functools.partial(orig, noise_vy=1e-9, noise_r=1e-9, noise_vx=1e-9)
+    try:
+        exact = BicycleSystem().prepare(sc.circles([], 500 + seed).recording).signals
+    finally:
+        sc.generate_bicycle = orig
+    p = BicycleSystem().prepare(rec)
+    sig = {**p.signals, "idx": np.arange(p.n),
+           "ay_ref": exact["dvy"] + exact["vx"] * exact["r"]}
+    measured = {k: v for k, v in sig.items() if k not in ("alpha_f_ref", "alpha_r_ref")}
+    assert np.all(_joint_scale(p, measured) < 0.95)
+    assert np.all(np.abs(_joint_scale(p, sig) - 1.0) < 0.02)
