@@ -66,6 +66,15 @@ channels at once (``EffectSpec.all_channels``: one road μ) are also tried on al
 together, so that a vehicle-scope term gaining on both axles with one parameter does not
 beat them axle by axle.
 
+A hypothesis that pushes an already chosen term onto the bound where that term is the
+nominal (``FitSpec.nl_vanishes``: μ = 3, a linear tire) displaces it: it is refitted and
+tested without it (:meth:`Fitter._displaced`; the earlier term is "removed"). After the
+backward pass, a system's declared symmetries (``symmetries``,
+:class:`.identifiability.Symmetry`: mass, yaw inertia and both tire laws scaled together)
+are answered by their simplest member set that explains the validation blocks as well
+(:meth:`Fitter._simplest_members`: three tire/inertia ratios of 0.87 are one mass ratio of
+1.15).
+
 Fitting: linear parameters by bounded linear least squares (``scipy.optimize.lsq_linear``,
 physical sign bounds such as Fc ≥ 0, or signed corrections of a nominal parameter whose lower
 bound is negative); nonlinear ones (Stribeck vs, tire mu, steering lag tau) by
@@ -870,7 +879,7 @@ class Fitter:
             # prediction per hypothesis. The pick is refitted below (the same numbers).
             trials, held = [], []
             for h in hyps:
-                f = self.fit_new(current, h, full=False)
+                f = self._displaced(h, self.fit_new(current, h, full=False))
                 held.append((self._errors(f, self.valid),
                              self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
                              else None,
@@ -913,7 +922,7 @@ class Fitter:
             pick = self._nested_pick(pick, ok, trials, held, evals)
             hyp = trials[pick][0]
             ctx = self.ctx       # the refit leaves the effects' context as the round did
-            fit = self.fit_new(current, hyp, full=False)
+            fit = self._displaced(hyp, self.fit_new(current, hyp, full=False))
             self.ctx = ctx
             blocked = self._structural(fit, hyp, candidates)
             alt = self._lookalike(hyp, blocked, ok, trials, gains) if blocked else None
@@ -921,7 +930,8 @@ class Fitter:
                 # the pick is not identifiable here, but a declared look-alike of it at its
                 # channel (a dead zone's torque bias) is significant in this round: that is
                 # the identifiable form of the same residual, so it is tried instead
-                alt_fit = self.fit_new(current, trials[alt][0], full=False)
+                alt_fit = self._displaced(trials[alt][0],
+                                          self.fit_new(current, trials[alt][0], full=False))
                 self.ctx = ctx
                 if not self._structural(alt_fit, trials[alt][0], candidates):
                     evals[pick]["_nested"] = (
@@ -936,6 +946,7 @@ class Fitter:
                         f"{'+'.join(t.label for t in trials[pick][0])} was picked in this "
                         "round (a larger gain, or as large with fewer parameters)"
                         + evals[i].get("_nested", ""))
+            self._record_displaced(current, fit, hyp, sel, tried)
             if blocked:
                 # not identifiable as such on this data: fitted (the identifiable combination
                 # it carries is part of the model, so that no other term stands in for it)
@@ -984,6 +995,7 @@ class Fitter:
             done = {t.key for t in hyp}
             remaining = [t for t in remaining if t.key not in done]
         current = self._prune(current, sel, tried)
+        current = self._simplest_members(current, sel, tried, candidates)
         current = self._demote_flips(current, sel, tried)
         current = self._demote_direction_offsets(current, sel, tried)
         current = self._identify(current, sel, tried)
@@ -1002,6 +1014,53 @@ class Fitter:
         sel.tried = [{k: v for k, v in e.items() if not k.startswith("_")}
                      for e in tried.values()]
         return sel
+
+    @staticmethod
+    def _vanished(term: Term, nl: np.ndarray) -> bool:
+        """Whether a nonlinear coordinate sits on the bound where the effect is the nominal.
+
+        ``nl_vanishes`` of the effect (:class:`~simgap.models.effects.FitSpec`), within the
+        tolerance of :meth:`at_limit`.
+        """
+        for v, side, (lo, hi) in zip(nl, term.effect.nl_vanishes, term.effect.nl_bounds,
+                                         strict=False):   # nl_vanishes may be empty
+            tol = 1e-3 * (hi - lo)
+            if (side == "high" and v >= hi - tol) or (side == "low" and v <= lo + tol):
+                return True
+        return False
+
+    def _displaced(self, hyp: tuple[Term, ...], fit: FitResult) -> FitResult:
+        """``fit`` (the chosen terms plus ``hyp``) without the chosen terms ``hyp`` displaced.
+
+        A term chosen in an earlier round as a stand-in (both axles' saturation for a mass
+        ratio and a steering lag) is pushed by the right hypothesis onto the bound where it
+        vanishes (``nl_vanishes``: μ = 3, a linear tire). That is the earlier term made
+        unnecessary, not the hypothesis forcing a parameter onto its plausibility limit
+        (:meth:`at_limit`, which rejected the hypothesis): the hypothesis is refitted and
+        tested without it. Returns ``fit`` itself when nothing vanished.
+        """
+        keep = [i for i, t in enumerate(fit.terms) if t in hyp or not self._vanished(t, fit.nl[i])]
+        if len(keep) == len(fit.terms):
+            return fit
+        return self.fit([fit.terms[i] for i in keep], [fit.nl[i] for i in keep], full=False)
+
+    def _record_displaced(self, current: FitResult, fit: FitResult, hyp: tuple[Term, ...],
+                          sel: Selection, tried: dict) -> None:
+        """Record the chosen terms that the pick ``hyp`` displaced (:meth:`_displaced`)."""
+        for i, t in enumerate(current.terms):
+            if t in fit.terms:
+                continue
+            text = (f"made unnecessary by {'+'.join(u.label for u in hyp)}: fitted beside it, "
+                    f"{t.effect.label} at {t.channel} went to the bound where it is the "
+                    "nominal")
+            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                                "params": _params(current, i), "gain": 0.0,
+                                                "test": TEST_NAME, "statistic": None,
+                                                "p_value": None})
+            entry.update(decision="removed", reason=text)
+            self._forget(sel, t)
+            self.combinations.pop(t.key, None)
+            sel.history.append({"term": t.label, "removed": True})
 
     @staticmethod
     def _nests(big: tuple[Term, ...], small: tuple[Term, ...]) -> bool:
@@ -1309,6 +1368,111 @@ class Fitter:
             self._forget(sel, t)
             current = f
         return current
+
+    def _simplest_members(self, current: FitResult, sel: Selection, tried: dict,
+                          candidates: Sequence[Term]) -> FitResult:
+        """Name the simplest description of a declared symmetry that explains the data as well.
+
+        A system's ``symmetries`` (:class:`.identifiability.Symmetry`: a vehicle's mass, yaw
+        inertia and both tire laws scaled together leave the motion unchanged) give one
+        motion several descriptions: cornering-stiffness ratios of 0.87 on both axles and a
+        yaw-inertia ratio of 0.87 are a mass ratio of 1.15 (all × 1/0.87). The forward
+        selection ends on whichever it met first. Each smaller equivalent member set
+        (:meth:`.identifiability.Symmetry.replacements`) is fitted in place of the chosen
+        members, the other terms refitted beside it; it replaces them when the backward
+        pass's test does not reject it (held-out likelihood ratio on the validation blocks,
+        χ² with the parameters it saves, :data:`ALPHA` shared by the terms), no parameter
+        sits on a plausibility limit and its new members pass the structural checks
+        (:meth:`_structural`: determined with their symmetry partners freed; where the data
+        cannot tell the members apart the chosen description stays, with that check's
+        combination). Fewest terms first; among as few, the smallest held-out error.
+        """
+        for sym in getattr(self.sys, "symmetries", ()):
+            while True:
+                chosen = [t for t in current.terms if sym.includes(t.effect.name)]
+                if not chosen or any(t.key in self.combinations for t in chosen):
+                    break
+                members = {c.key: c for c in candidates if sym.includes(c.effect.name)}
+                members.update({t.key: t for t in chosen})
+                found = self._replacement(current, sym, chosen, members, candidates)
+                if found is None:
+                    break
+                current = self._replace(current, sel, tried, sym, chosen, *found)
+        return current
+
+    def _replacement(self, current: FitResult, sym: Any, chosen: list[Term],
+                     members: dict[tuple, Term], candidates: Sequence[Term]
+                     ) -> tuple[FitResult, float] | None:
+        """The smallest member set of ``sym`` that explains the data as well (see above).
+
+        Returns:
+            (its fit, the test's p-value), or None.
+        """
+        alpha = ALPHA / len(current.terms)
+        base = self._errors(current, self.valid)
+        best: tuple[int, float, FitResult, float] | None = None
+        for keys in sym.replacements([t.key for t in chosen], list(members)):
+            if best is not None and len(keys) > best[0]:
+                break
+            kept = [i for i, t in enumerate(current.terms)
+                    if not sym.includes(t.effect.name) or t.key in keys]
+            added = [members[k] for k in keys if k not in {t.key for t in chosen}]
+            start = dataclasses.replace(current, terms=[current.terms[i] for i in kept],
+                                        nl=[current.nl[i] for i in kept])
+            ctx = self.ctx
+            alt = self.fit_new(start, added, full=False)
+            self.ctx = ctx
+            saved = sum(t.effect.n_params for t in current.terms) - \
+                sum(t.effect.n_params for t in alt.terms)
+            if saved < 1 or self.at_limit(alt):
+                continue
+            errors = self._errors(alt, self.valid)
+            g = likelihood_ratio(errors, base, saved)
+            p = g.p_value if g.testable else 0.0
+            if p < alpha or self._structural(alt, tuple(added), candidates):
+                continue
+            sse = float(np.sum(errors**2))
+            if best is None or sse < best[1]:
+                best = (len(keys), sse, alt, p)
+        return None if best is None else (best[2], best[3])
+
+    def _replace(self, current: FitResult, sel: Selection, tried: dict, sym: Any,
+                 chosen: list[Term], alt: FitResult, p: float) -> FitResult:
+        """Record ``alt``'s members of ``sym`` replacing ``chosen`` (:meth:`_simplest_members`)."""
+        gone = [t for t in chosen if t not in alt.terms]
+        added = [t for t in alt.terms if sym.includes(t.effect.name) and t not in chosen]
+        old = ", ".join(f"{t.effect.label} at {t.channel} ({_ratio_text(current, t)})"
+                        for t in chosen)
+        new = ", ".join(f"{t.effect.label} at {t.channel} ({_ratio_text(alt, t)})"
+                        for t in alt.terms if sym.includes(t.effect.name)) or "the nominal"
+        text = (f"{old} and {new} describe the same motion ({sym.description} leave it "
+                f"unchanged) and explain the held-out data as well (p = {p:.2g} for the "
+                "larger set's gain): the simplest description is named")
+        for t in gone:
+            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                                "params": _params(current,
+                                                                  current.terms.index(t)),
+                                                "gain": 0.0, "test": TEST_NAME,
+                                                "statistic": None, "p_value": None})
+            entry.update(decision="removed", reason=text)
+            self._forget(sel, t)
+            sel.history.append({"term": t.label, "removed": True, "p_value": float(p)})
+        if added:
+            keep = [i for i, t in enumerate(alt.terms) if t not in added]
+            without = self.fit([alt.terms[i] for i in keep], [alt.nl[i] for i in keep],
+                               full=False)
+            g = likelihood_ratio(self._errors(without, self.valid),
+                                 self._errors(alt, self.valid),
+                                 sum(t.effect.n_params for t in added))
+            for t in added:
+                entry = tried.setdefault((t.key,), {"effect": t.effect.name,
+                                                    "channel": t.channel, "test": TEST_NAME})
+                entry.update(params=_params(alt, alt.terms.index(t)), gain=g.share_removed,
+                             statistic=g.statistic, p_value=g.p_value, decision="named",
+                             reason=text, _hyp=(t,))
+                sel.history.append({"term": t.label, "gain": float(g.share_removed),
+                                    "p_value": float(g.p_value), "accepted": True})
+        return alt
 
     def _directions(self) -> dict[str, float]:
         """Share of the fit rows on which each direction variable is positive.

@@ -28,7 +28,8 @@ identifiable part and say which direction is left open.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import itertools
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -246,3 +247,53 @@ def determination(jacobian: np.ndarray, names: Sequence[str], which: Sequence[st
     z = np.abs(v[idx]) / se
     return Determination(names=tuple(which), standard_error=se, retained=retained,
                          z=z)
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """A declared symmetry of a system: effects whose scales, changed together, leave the motion.
+
+    Registry data on the system form (``symmetries``, e.g.
+    :attr:`simgap.diagnosis.systems.BicycleSystem.symmetries`): scaling every member by one
+    factor λ leaves the motion unchanged (a vehicle's mass, yaw inertia and both axles' tire
+    laws: every force and every inertia ×λ). A fitted set whose chosen members carry scales
+    ρᵢ (the absent members at their nominal, 1) then describes the same motion as λ·ρ for
+    any λ: every absent member takes the scale λ, and each chosen member whose ρᵢ = 1/λ
+    drops out. So one motion has several members' descriptions; the diagnosis names the
+    simplest one that explains the data as well (:meth:`replacements`), and reports the
+    identifiable combination where the data cannot tell them apart.
+
+    Attributes:
+        members: effect names; an effect fitted per channel is a member at every channel.
+        description: what is scaled together, in words (for reports).
+    """
+
+    members: tuple[str, ...]
+    description: str
+
+    def includes(self, effect: str) -> bool:
+        """Whether the effect named ``effect`` is a member."""
+        return effect in self.members
+
+    @staticmethod
+    def replacements(chosen: Sequence[Hashable], members: Sequence[Hashable]
+                     ) -> list[tuple[Hashable, ...]]:
+        """Smaller member sets that may describe the same motion as ``chosen``, fewest first.
+
+        With every member scaled by λ ≠ 1, each member absent from ``chosen`` carries λ, and
+        a chosen member drops out only where its scale was 1/λ: an equivalent description
+        holds every absent member plus some of the chosen ones. Only those with fewer terms
+        than ``chosen`` are listed (the data decide whether one explains as well).
+
+        Args:
+            chosen: the members in the fitted set (keys: effect, channel).
+            members: every member the selection could fit (keys), ``chosen`` among them.
+
+        Returns:
+            Candidate sets (tuples of keys), by size then order of ``chosen``.
+        """
+        absent = [m for m in members if m not in chosen]
+        out: list[tuple[Hashable, ...]] = []
+        for k in range(max(len(chosen) - len(absent), 0)):
+            out += [(*absent, *kept) for kept in itertools.combinations(chosen, k)]
+        return out

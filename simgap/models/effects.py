@@ -82,6 +82,12 @@ class FitSpec:
         nl_units: their units (templates).
         nl_bounds: (low, high) per nonlinear coordinate.
         nl_grid: start values per nonlinear coordinate.
+        nl_vanishes: per nonlinear coordinate, the bound at which the effect becomes the
+            nominal (``"high"``: a road μ so large that the tire stays linear over any
+            recorded slip; ``"low"``: a steering lag of a millisecond), or ``""`` (empty
+            tuple: none). A term already chosen that a later hypothesis pushes onto that
+            bound is made unnecessary by it (the diagnosis refits the hypothesis without it),
+            not forced onto data it does not describe.
         uses_derivatives: the contribution depends on accelerations (mass-type effects).
         generalizes: simpler effects this one contains as a special case (same channel).
         generic: applies to any mechanical model (not only the system declaring it).
@@ -138,6 +144,7 @@ class FitSpec:
     nl_units: tuple[str, ...] = ()
     nl_bounds: tuple[tuple[float, float], ...] = ()
     nl_grid: tuple[tuple[float, ...], ...] = ()
+    nl_vanishes: tuple[str, ...] = ()
     uses_derivatives: bool = False
     generalizes: tuple[str, ...] = ()
     generic: bool = True

@@ -62,11 +62,13 @@ def test_a_mass_ratio_of_one_is_not_fitted_below_one_from_noise(seed: int) -> No
     # the measured acceleration as the regressor: the common scale slides to the noise
     old, _ = _scale_fit(seed, measured=True)
     assert old < 0.5
-    # instrumented: within 5 % of 1 (what is left, 2-3 % low, is the stiffness terms'
-    # own filtered-state noise, not the derivative's)
+    # instrumented (accelerations and, since s8, the slip angles too): within 2 % of 1
+    # (s7, accelerations only: 2-3 % low, the slip angles' filtered-state noise). The
+    # standard error is larger than s7's 0.01-0.02: the speed-scheduled first stage no
+    # longer leaves a physical misfit in the mass regressor that broke the symmetry
     ratio, se = _scale_fit(seed, measured=False)
-    assert se < 0.02
-    assert abs(ratio - 1.0) < 0.05, (ratio, se)
+    assert se < 0.03
+    assert abs(ratio - 1.0) < 0.02, (ratio, se)
 
 
 def test_reference_accelerations_ignore_the_derivative_noise() -> None:
