@@ -39,7 +39,7 @@ from numba import njit
 from scipy.signal import lfilter, savgol_coeffs
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
-from simgap.diagnosis.errormodel import MAD_TO_STD
+from simgap.diagnosis.errormodel import LAG_Z, MAD_TO_STD, velocity_lag
 from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.residual import (
     MAX_WINDOW_S,
@@ -741,6 +741,33 @@ class MechanicalSystem:
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
 
+    def _lagged_velocities(self, raw: Mapping[str, np.ndarray], grid: Any,
+                           models: Mapping[str, Any], bad: list[tuple[str, str]]
+                           ) -> list[str]:
+        """One line per velocity column that lags (or leads) its angle's derivative.
+
+        A velocity logged δ late (a backward difference: half a sample; a drive's moving
+        average or low-pass: its group delay) fits as an input delay δ on a clean log
+        (:func:`simgap.diagnosis.errormodel.velocity_lag`). When the angle's own error is
+        modelled (white or quantised), the angle's derivative has no such lag and is used
+        instead. Built-in arm only (other models keep their route until re-validated).
+        """
+        if not self.is_manipulator:
+            return []
+        c, out = self.columns, []
+        done = {v for v, _ in bad}
+        for v, p in zip(c.dq, c.q, strict=True):
+            if v in done or (models[p].heavy_tailed and not _quantised(models[p])):
+                continue
+            lag, se = velocity_lag(raw[p], raw[v], grid.dt, grid.segment)
+            if abs(lag) > LAG_Z * se:
+                out.append(f"{v} {'lags' if lag > 0 else 'leads'} the derivative of {p} by "
+                           f"{1e3 * abs(lag):.3g} ms ({abs(lag) / se:.0f} standard errors; a "
+                           "backward difference or a filter upstream?): a lag of the "
+                           f"velocity would read as an input delay; differentiating {p} "
+                           "instead")
+        return out
+
     def prepare(self, rec: Recording) -> Prepared:
         """Filter the recording; the residual (N·m or N), its noise floor, the signals."""
         c = self.columns
@@ -761,6 +788,10 @@ class MechanicalSystem:
             bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True)
                    if (models[v].filtered_upstream or _quantised(models[v]))
                    and not (models[p].heavy_tailed and not _quantised(models[p]))]
+            lagged = self._lagged_velocities(raw, grid, models, bad)
+            if lagged:
+                from_q = True
+                warn += lagged
             if bad:
                 from_q = True
                 warn += [(f"{v} is quantised (step {models[v].quantum:.4g}, a finite "

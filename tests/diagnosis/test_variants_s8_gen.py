@@ -1,0 +1,92 @@
+"""Held-out artefact variants (s8-gen): a lagged motion is no input delay.
+
+* **A velocity column that lags its angle** (a backward difference: half a sample; a
+  drive's moving average: its group delay) fitted as an input delay at both joints on every
+  clean log of a 2^20-count encoder with a backward-difference velocity
+  (``benchmarks/diagnosis_variants.py``, variant ``enc_2p20``): the lag is measured against
+  the angle's zero-phase derivative and the angle is differentiated instead.
+* **Angles low-passed before logging** (a causal 2nd-order Butterworth at 20 Hz) lag the
+  logged input by the filter's group delay, which no log can tell from an actuator delay:
+  the delay is fitted but reported as not identifiable, not named.
+"""
+
+import numpy as np
+from scipy.signal import butter, lfilter
+
+from simgap.diagnosis.artefacts import finite_difference, quantise
+from simgap.diagnosis.errormodel import LAG_Z, column_error_model, velocity_lag
+from simgap.diagnosis.generate import InjectedEffect, generate
+from simgap.diagnosis.pipeline import diagnose
+from simgap.recordings import Recording
+
+PAIRS = {"dq1": "q1", "dq2": "q2"}
+
+
+def _blind(rec: Recording) -> Recording:
+    return Recording(rec.name, dict(rec.columns))
+
+
+def _butter(rec: Recording, columns, cutoff_hz: float) -> Recording:
+    b, a = butter(2, cutoff_hz, fs=1.0 / float(np.median(np.diff(rec.t))))
+    cols = dict(rec.columns)
+    for c in columns:
+        cols[c] = rec[c][0] + lfilter(b, a, rec[c] - rec[c][0])
+    return Recording(rec.name, cols)
+
+
+def _signal(dt: float = 0.002):
+    t = np.arange(0.0, 20.0, dt)
+    q = np.sin(2 * np.pi * 0.7 * t) + 0.3 * np.sin(2 * np.pi * 1.9 * t)
+    dq = 2 * np.pi * (0.7 * np.cos(2 * np.pi * 0.7 * t) + 0.3 * 1.9 * np.cos(2 * np.pi * 1.9 * t))
+    return t, q, dq
+
+
+def test_velocity_lag_measures_a_backward_difference():
+    rng = np.random.default_rng(0)
+    dt = 0.002
+    _, q, dq = _signal(dt)
+    qn = q + rng.normal(0.0, 1e-4, q.size)
+    lag, se = velocity_lag(qn, dq + rng.normal(0.0, 2e-3, q.size), dt)
+    assert abs(lag) < LAG_Z * se                      # a consistent pair: no lag
+    bd = np.empty_like(qn)
+    bd[1:] = np.diff(qn) / dt
+    bd[0] = bd[1]
+    lag, se = velocity_lag(qn, bd, dt)
+    assert abs(lag - dt / 2) < 0.05 * dt and lag > LAG_Z * se
+
+
+def test_low_passed_column_is_told_from_white_noise():
+    rng = np.random.default_rng(1)
+    t, q, _ = _signal()
+    white = q + rng.normal(0.0, 1e-4, q.size)
+    b, a = butter(2, 20.0, fs=500.0)
+    low = lfilter(b, a, white)
+    assert not column_error_model("q", white).low_passed
+    assert column_error_model("q", low).low_passed
+    assert not column_error_model("q", white[::10]).low_passed        # 50 Hz, still white
+
+
+def test_backward_difference_velocity_is_no_input_delay():
+    rec = generate("manipulator2dof", [], seed=500, duration=20.0)
+    rec = finite_difference(quantise(rec, ["q1", "q2"], 2 * np.pi / 2**20), PAIRS)
+    rep = diagnose(_blind(rec), "manipulator2dof")
+    assert rep.effects == []
+    assert any("dq1 lags the derivative of q1" in w for w in rep.prepared.warnings)
+
+
+def test_true_input_delay_still_named_with_a_backward_difference_velocity():
+    inj = InjectedEffect(effect="input_delay", channel=None, params={"delay": 0.01})
+    rec = generate("manipulator2dof", [inj], seed=3, duration=20.0)
+    rec = finite_difference(quantise(rec, ["q1", "q2"], 2 * np.pi / 2**20), PAIRS)
+    rep = diagnose(_blind(rec), "manipulator2dof")
+    assert {e["effect"] for e in rep.effects} == {"input_delay"}
+    for e in rep.effects:                 # the total latency: delay + the 1 ms hold lag
+        assert abs(e["input_latency"]["total"] - 0.011) < 0.002
+
+
+def test_low_passed_angles_delay_not_named():
+    rec = generate("manipulator2dof", [], seed=501, duration=20.0)
+    rec = _butter(rec, ["q1", "q2", "dq1", "dq2"], 20.0)
+    rep = diagnose(_blind(rec), "manipulator2dof")
+    assert rep.effects == []
+    assert "low-passed before logging" in rep.data["verdict"]
