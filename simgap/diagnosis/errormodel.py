@@ -316,6 +316,45 @@ def velocity_lag(q: np.ndarray, dq: np.ndarray, dt: float,
     return lag, float(np.sqrt(var)) if var > 0 else float("inf")
 
 
+#: An extreme value held on at least this many samples can be a saturation level.
+CLIP_MIN_SAMPLES = 5
+#: ... when it holds this many times the samples of the level just inside it (a quantised
+#: column's extreme level holds 1-3x its neighbour's near a smooth peak).
+CLIP_RATIO = 10.0
+
+
+def clipped(x: np.ndarray) -> np.ndarray:
+    """Samples of a column that sit on a saturation level (clipped before logging).
+
+    A continuous-valued column takes its maximum (minimum) once; a clipped one holds it on
+    every sample the true value exceeded the limit. An extreme level is a clip when it holds
+    at least :data:`CLIP_MIN_SAMPLES` samples and :data:`CLIP_RATIO` times as many as the
+    equally wide band just inside it (one quantisation step, or the float resolution of a
+    continuous column), so that a quantised column's top level near a smooth peak is none.
+
+    Args:
+        x: the column's samples (column units).
+
+    Returns:
+        Boolean mask, shape like ``x`` (all False when nothing is clipped).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    out = np.zeros(x.size, dtype=bool)
+    if x.size < 3 * CLIP_MIN_SAMPLES or not np.all(np.isfinite(x)):
+        return out
+    q = quantisation_step(x)
+    scale = max(float(np.max(np.abs(x))), 1e-300)
+    width = q if q is not None else 1e-9 * scale
+    for level, sign in ((float(np.max(x)), 1.0), (float(np.min(x)), -1.0)):
+        at = np.abs(x - level) <= 0.5 * width
+        d = sign * (level - x)                       # distance inside the level (≥ 0)
+        inside = int(np.count_nonzero((d > 0.5 * width) & (d <= 1.5 * width)))
+        n = int(np.count_nonzero(at))
+        if n >= CLIP_MIN_SAMPLES and n >= CLIP_RATIO * max(inside, 1):
+            out |= at
+    return out
+
+
 def autocorrelation_time(r: np.ndarray) -> float:
     """Integrated autocorrelation time τ = 1 + 2 Σ ρ_k (samples) of a residual series.
 

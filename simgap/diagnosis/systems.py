@@ -39,7 +39,7 @@ from numba import njit
 from scipy.signal import lfilter, savgol_coeffs
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
-from simgap.diagnosis.errormodel import LAG_Z, MAD_TO_STD, velocity_lag
+from simgap.diagnosis.errormodel import LAG_Z, MAD_TO_STD, clipped, velocity_lag
 from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.residual import (
     MAX_WINDOW_S,
@@ -741,6 +741,35 @@ class MechanicalSystem:
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
 
+    def _clipped_rows(self, raw: Mapping[str, np.ndarray], smoother: Any,
+                      warn: list[str]) -> np.ndarray:
+        """Rows (N, n) whose equation reads a clipped input sample (not fitted, not scored).
+
+        A logged input held on its saturation level (:func:`.errormodel.clipped`) is not
+        the input that acted while the true one exceeded the limit: the residual there is
+        the clip, no effect. Every row whose filter window (one window wide, per segment)
+        touches such a sample is left out of fitting and scoring for that channel, and the
+        report says so. Built-in arm only (one input column per channel).
+        """
+        c = self.columns
+        n = len(next(iter(raw.values())))
+        out = np.zeros((n, self.n_channels), dtype=bool)
+        if not self.is_manipulator or len(c.u) != self.n_channels:
+            return out
+        for j, k in enumerate(c.u):
+            hit = clipped(raw[k])
+            if not hit.any():
+                continue
+            near = np.convolve(hit.astype(float), np.ones(smoother.window), mode="same") > 0
+            out[:, j] = near
+            lo, hi = float(np.min(raw[k][hit])), float(np.max(raw[k][hit]))
+            warn.append(f"{k} is clipped: {int(hit.sum())} samples sit on its saturation "
+                        f"level{'s' if lo != hi else ''} ({lo:.4g}"
+                        f"{'' if lo == hi else f', {hi:.4g}'}); the {int(near.sum())} rows "
+                        "whose equation reads them are not fitted or scored (the logged "
+                        "input is not the one that acted there)")
+        return out
+
     def _lagged_velocities(self, raw: Mapping[str, np.ndarray], grid: Any,
                            models: Mapping[str, Any], bad: list[tuple[str, str]]
                            ) -> list[str]:
@@ -851,6 +880,7 @@ class MechanicalSystem:
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
         valid = smoother.valid(len(t))
+        clip = self._clipped_rows(raw, smoother, warn)
         return Prepared(t=t, residual=res, noise_rms=floor, signals=sig,
                         smoother=smoother, resampled=grid.resampled, column_noise=noise,
                         segment=grid.segment, column_models=models,
@@ -859,7 +889,8 @@ class MechanicalSystem:
                         valid=valid, plan=plan, inputs=u_hold,
                         # what an input delay shifts
                         held_input=_held(u_hold, plan.hold, interval=kernel is not None),
-                        coulomb_sigma=sigma, fit_mask=self._fit_mask(sig, sigma, valid),
+                        coulomb_sigma=sigma,
+                        fit_mask=self._fit_mask(sig, sigma, valid) & ~clip,
                         state_columns=tuple((k, j) for k in ("q", "dq")
                                             for j in range(sig["q"].shape[1])),
                         state_derivative=sig["ddq"],

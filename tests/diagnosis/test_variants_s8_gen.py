@@ -8,13 +8,16 @@
 * **Angles low-passed before logging** (a causal 2nd-order Butterworth at 20 Hz) lag the
   logged input by the filter's group delay, which no log can tell from an actuator delay:
   the delay is fitted but reported as not identifiable, not named.
+* **A torque column clipped at a saturation level** (2 % of the samples) left a real
+  torque bias "not confirmed" on the test part: rows whose equation reads a clipped sample
+  are not fitted or scored.
 """
 
 import numpy as np
 from scipy.signal import butter, lfilter
 
 from simgap.diagnosis.artefacts import finite_difference, quantise
-from simgap.diagnosis.errormodel import LAG_Z, column_error_model, velocity_lag
+from simgap.diagnosis.errormodel import LAG_Z, clipped, column_error_model, velocity_lag
 from simgap.diagnosis.generate import InjectedEffect, generate
 from simgap.diagnosis.pipeline import diagnose
 from simgap.recordings import Recording
@@ -90,3 +93,29 @@ def test_low_passed_angles_delay_not_named():
     rep = diagnose(_blind(rec), "manipulator2dof")
     assert rep.effects == []
     assert "low-passed before logging" in rep.data["verdict"]
+
+
+# ---------------------------------------------------------------- clipped input column
+def test_clipped_levels_told_from_a_quantised_peak():
+    t = np.linspace(0.0, 20.0, 10001)
+    x = np.sin(t)
+    step = 2.0 / 4096                                    # a 12-bit DAC over ±1
+    assert not clipped(np.round(x / step) * step).any()  # its top level is no clip
+    assert not clipped(x).any()
+    hit = clipped(np.clip(x, -0.9, 0.9))
+    assert hit.any() and np.array_equal(hit, np.abs(x) >= 0.9)
+
+
+def test_clipped_torque_rows_not_fitted():
+    """A torque column clipped at its 98th percentile hid a torque bias (not confirmed)."""
+    inj = InjectedEffect(effect="torque_bias", channel="joint2",
+                         params={"tau0": 0.1803464344937657})
+    rec = generate("manipulator2dof", [inj], seed=0, duration=20.0)
+    cols = dict(rec.columns)
+    for c in ("tau1", "tau2"):
+        lim = float(np.quantile(np.abs(cols[c]), 0.98))
+        cols[c] = np.clip(cols[c], -lim, lim)
+    rep = diagnose(Recording(rec.name, cols), "manipulator2dof")
+    assert [(e["effect"], e["channel"]) for e in rep.effects] == [("torque_bias", "joint2")]
+    assert abs(rep.effects[0]["parameters"]["tau0"] - 0.1803) < 0.2 * 0.1803
+    assert any("tau2 is clipped" in w for w in rep.prepared.warnings)
