@@ -16,7 +16,7 @@ a causal 2nd-order Butterworth (20 Hz, and 10 Hz with the velocity from a moving
 average); a torque column quantised by a 12-bit DAC or clipped at a saturation limit;
 logging rates 50, 200 and 1000 Hz; large time-stamp jitter; three gaps; unix time stamps
 (t0 ≈ 1.7e9 s); a 120 s and an 8 s log; a heavier and a lighter arm as the nominal; effect
-sizes at half the lower end and twice the upper end of the proof's ranges.
+sizes at a tenth and half the lower end and twice the upper end of the proof's ranges.
 
 Quick mode (default; CI runs a slice of it through ``tests/test_benchmarks.py``) runs
 ``--variants``/``--effects`` given on the command line; the full table (every variant, the
@@ -207,6 +207,8 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant(name="light_arm", description="nominal arm 0.5x lighter (m, I)", nominal=_LIGHT),
     Variant(name="effects_below", description="effects at half the lower end of RANGES",
             effect_scale=0.5),
+    Variant(name="effects_far_below", description="effects at a tenth of the lower end of "
+            "RANGES", effect_scale=0.1),
     Variant(name="effects_beyond", description="effects at twice the upper end of RANGES",
             effect_scale=2.0),
 )}
