@@ -1378,7 +1378,10 @@ class Fitter:
         lagged = self._low_passed_motion()
         for t in hyp:
             if lagged and t.key not in out and _input_lag(t.effect):
-                out[t.key] = (f"{t.effect.label} at {t.channel} is not identifiable: "
+                lag = ", ".join(f"{v:.4g} {u}" for v, u in zip(
+                    np.atleast_1d(fit.nl[fit.terms.index(t)]), t.effect.nl_units,
+                    strict=False))
+                out[t.key] = (f"{t.effect.label} at {t.channel} ({lag}) is not identifiable: "
                               f"{', '.join(lagged)} {'was' if len(lagged) == 1 else 'were'} "
                               "low-passed before logging (the upper half of "
                               "the spectrum is not white), and a filter's lag of the logged "
