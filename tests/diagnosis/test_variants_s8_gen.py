@@ -119,3 +119,23 @@ def test_clipped_torque_rows_not_fitted():
     assert [(e["effect"], e["channel"]) for e in rep.effects] == [("torque_bias", "joint2")]
     assert abs(rep.effects[0]["parameters"]["tau0"] - 0.1803) < 0.2 * 0.1803
     assert any("tau2 is clipped" in w for w in rep.prepared.warnings)
+
+
+def test_backward_difference_velocity_is_no_delay_on_an_mjcf():
+    """The same lag on a MuJoCo model's log (measured: a 0.7-0.9 ms delay named before)."""
+    import pytest
+    pytest.importorskip("mujoco")
+    from pathlib import Path
+
+    from simgap.diagnosis.mjcf_record import record_mjcf
+    from simgap.diagnosis.mujoco import diagnose_mjcf
+
+    xml = Path(__file__).resolve().parents[2] / "examples" / "mujoco" / "arm2dof.xml"
+    cols = record_mjcf(xml, duration=20.0, seed=0)
+    for q in [k for k in cols if k.startswith("q_")]:
+        d = np.empty_like(cols[q])
+        d[1:] = np.diff(cols[q]) / np.diff(cols["t"])
+        d[0] = d[1]
+        cols["d" + q] = d
+    rep = diagnose_mjcf(xml, Recording("mj", cols))
+    assert rep.effects == []
