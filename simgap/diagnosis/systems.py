@@ -785,7 +785,11 @@ class MechanicalSystem:
         c, out = self.columns, []
         done = {v for v, _ in bad}
         for v, p in zip(c.dq, c.q, strict=True):
-            if v in done or (models[p].heavy_tailed and not _quantised(models[p])):
+            # the angle's derivative is a remedy only when the angle's own error is modelled:
+            # not when it too is heavy-tailed or low-passed (a 10 Hz Butterworth angle lags
+            # more and smears a friction reversal more than a drive's moving-average dq)
+            if v in done or models[p].low_passed or (models[p].heavy_tailed
+                                                     and not _quantised(models[p])):
                 continue
             lag, se = velocity_lag(raw[p], raw[v], grid.dt, grid.segment)
             if abs(lag) > LAG_Z * se:

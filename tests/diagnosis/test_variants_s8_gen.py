@@ -139,3 +139,23 @@ def test_backward_difference_velocity_is_no_delay_on_an_mjcf():
         cols["d" + q] = d
     rep = diagnose_mjcf(xml, Recording("mj", cols))
     assert rep.effects == []
+
+
+def test_low_passed_angle_keeps_the_velocity_column():
+    """A 10 Hz-filtered angle is no remedy for a moving-average dq (Coulomb read as Stribeck).
+
+    Its derivative lags 22.5 ms and smears the friction reversal more than the drive's
+    10-sample moving average of dq does; differentiating it named a Stribeck friction
+    (vs = 1.3 rad/s) for a Coulomb friction of 0.18 N·m at joint 2.
+    """
+    inj = InjectedEffect(effect="coulomb_friction", channel="joint2",
+                         params={"Fc": 0.1803464344937657})
+    rec = generate("manipulator2dof", [inj], seed=0, duration=20.0)
+    rec = _butter(rec, ["q1", "q2"], 10.0)
+    cols = dict(rec.columns)
+    for c in ("dq1", "dq2"):
+        cols[c] = cols[c][0] + lfilter(np.full(10, 0.1), [1.0], cols[c] - cols[c][0])
+    rep = diagnose(Recording(rec.name, cols), "manipulator2dof")
+    assert [(e["effect"], e["channel"]) for e in rep.effects] == [("coulomb_friction",
+                                                                   "joint2")]
+    assert not any("differentiating q" in w for w in rep.prepared.warnings)
