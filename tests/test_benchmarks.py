@@ -112,3 +112,15 @@ def test_bench_vector_filed_worker_quick():
         assert row["sync_filed_bare"] > 0 and row["sync_filed_bare_cpu"] > 0
         assert row["ratio_native_over_sync_filed_bare"] > 0
         assert row["ratio_sync_over_sync_filed_bare"] > 0
+
+
+def test_diagnosis_variants_quick(tmp_path):
+    """The held-out variants table runs (one variant, one effect, one clean log)."""
+    out = tmp_path / "var.json"
+    res = _run("diagnosis_variants.py", "--variants", "enc_2p20", "--effects",
+               "coulomb_friction", "--clean", "1", "--out", str(out))
+    assert json.loads(out.read_text()) == res
+    s = res["summary"]["enc_2p20"]
+    assert s["cases"] == 1 and s["clean"] == 1 and s["errors"] == 0
+    assert s["clean_with_named_effects"] == 0          # a backward difference is no delay
+    assert {"ok", "wrong_effect_named", "named_with_extra_effects"} <= set(s)

@@ -33,6 +33,15 @@ This module estimates, per column:
   explains (``hf_excess``: mean top-band PSD over 2σ²/fs; ≈ 1 white, 1.4–2.2 for kinks at
   100 Hz and jittered logs, 8–180 for denoised columns, infinite on exact plateaus). Only
   a heavy-tailed column failing one of these counts as filtered upstream.
+* **a velocity column that lags its position column** (:func:`velocity_lag`): a backward
+  difference lags the true velocity by half a sample, a drive's moving average or low-pass
+  by its group delay. The error model of each column alone cannot see it (a backward
+  difference of a finely quantised, noisy angle is white-ish, a moving average is smooth),
+  but the pair can: a velocity logged δ late satisfies dq(t) ≈ q̇(t) − δ·q̈(t), with q̇ the
+  zero-phase derivative of the angle. A lag between the velocity and the angle is no
+  physics: fitted through the velocity it becomes an input delay δ (measured: 1 ms, half a
+  2 ms sample, named as an input delay at both joints on every clean 2^20-count encoder log
+  with a backward-difference velocity).
 * **effective sample count** of a residual: N / τ, with τ the integrated autocorrelation
   time (Geyer's initial positive sequence), so that statistics on correlated residuals do
   not count every sample as independent.
@@ -47,7 +56,7 @@ from dataclasses import dataclass
 from math import comb
 
 import numpy as np
-from scipy.signal import welch
+from scipy.signal import savgol_filter, welch
 
 #: Difference orders over which the white-noise estimate is minimised.
 ORDERS = (2, 3, 4, 5, 6)
@@ -72,6 +81,13 @@ FLATNESS_WHITE = 0.5
 HF_EXCESS = 4.0
 #: Welch segment length (samples) of the flatness estimate, shortened to keep ≥ 8 segments.
 WELCH_SEGMENT = 256
+#: Savitzky–Golay window (samples, cubic) of the velocity-lag estimate: both sides of
+#: dq ≈ q̇ − δ·q̈ go through the same zero-phase filter, so its length sets the noise only.
+LAG_WINDOW = 11
+#: A velocity column lags its angle when the lag estimate exceeds this many standard errors
+#: (autocorrelation-corrected). A consistent pair gives |z| of order 1 at any length; the
+#: lags this is meant for give z in the tens to hundreds (half a sample at 500 Hz: 40-60).
+LAG_Z = 5.0
 
 
 @dataclass(frozen=True)
@@ -90,7 +106,8 @@ class ColumnErrorModel:
         kurtosis: kurtosis of the third differences (3 for white noise).
         notes: one-line findings a report can show.
         flatness: spectral flatness of the column's upper half band (≈ 1 white, ≪ 1 when
-            the high frequencies were filtered away); 1 when too short to tell.
+            the high frequencies were filtered away); 1 when too short to tell or when
+            quantisation dominates.
         hf_excess: mean PSD of the upper half band over white noise's of std
             ``white_std`` (≈ 1 white; ≫ 1 when the noise estimate misses that band's power).
     """
@@ -112,6 +129,21 @@ class ColumnErrorModel:
             self.white_std
         return bool(self.heavy_tailed and not dominant
                     and (self.flatness < FLATNESS_WHITE or self.hf_excess > HF_EXCESS))
+
+    @property
+    def low_passed(self) -> bool:
+        """The upper half band is not white: the column was low-passed before logging.
+
+        A causal low-pass (a drive's Butterworth on its angle) leaves Gaussian differences,
+        so it is no heavy-tailed column, but its cut shows in the spectrum (flatness
+        0.08–0.13 for 2nd-order Butterworth at 10–20 Hz on 500 Hz logs, ≥ 0.95 for white
+        noise at 50–1000 Hz, coloured noise and jitter). Such a column lags the physics by
+        the filter's group delay. Not judged on a quantised staircase (its flatness says
+        nothing about a filter).
+        """
+        dominant = bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
+            self.white_std
+        return bool(not dominant and self.flatness < FLATNESS_WHITE)
 
     @property
     def floor_std(self) -> float:
@@ -214,7 +246,7 @@ def column_error_model(name: str, x: np.ndarray) -> ColumnErrorModel:
     limit = max(2.0 * 3.0, 3.0 + KURTOSIS_SIGMAS * np.sqrt(24.0 / n))
     dominant = q is not None and q / np.sqrt(12.0) > QUANT_DOMINANT * std
     heavy = bool(dominant or not np.isfinite(kurt) or kurt > limit)
-    flat, excess = top_band(x, std) if heavy and not dominant else (1.0, 1.0)
+    flat, excess = top_band(x, std) if not dominant else (1.0, 1.0)
     filtered = flat < FLATNESS_WHITE or excess > HF_EXCESS
     notes = []
     if dominant:
@@ -234,6 +266,93 @@ def column_error_model(name: str, x: np.ndarray) -> ColumnErrorModel:
     return ColumnErrorModel(name=name, white_std=std, order=order, quantum=q,
                             heavy_tailed=heavy, kurtosis=kurt, notes=tuple(notes),
                             flatness=flat, hf_excess=excess)
+
+
+def velocity_lag(q: np.ndarray, dq: np.ndarray, dt: float,
+                 segment: np.ndarray | None = None) -> tuple[float, float]:
+    """Lag (s) of a velocity column behind the zero-phase derivative of its position column.
+
+    Fits dq_s(t) − q̇_s(t) = −δ·q̈_s(t) by least squares over every segment, where dq_s is
+    the velocity column smoothed, q̇_s the angle's derivative and q̈_s the velocity column's
+    derivative, all by one cubic Savitzky–Golay filter of :data:`LAG_WINDOW` samples (zero
+    phase, so a consistent pair gives δ ≈ 0 whatever the filter's bias). The standard error
+    counts the fit residual's effective samples (N/τ, :func:`autocorrelation_time`).
+
+    Args:
+        q: position column (rad or m) on a uniform grid per segment.
+        dq: velocity column (rad/s or m/s), same rows.
+        dt: sample period (s).
+        segment: segment id per row (gaps split the filter); None = one segment.
+
+    Returns:
+        (δ, stderr) in seconds; (0.0, inf) when too short or without acceleration.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    dq = np.asarray(dq, dtype=np.float64)
+    seg = np.zeros(q.size, dtype=np.int64) if segment is None else np.asarray(segment)
+    w, h = LAG_WINDOW, LAG_WINDOW // 2
+    es, xs = [], []
+    for s_id in np.unique(seg):
+        rows = np.flatnonzero(seg == s_id)
+        if rows.size < 4 * w:
+            continue
+        qs, vs = q[rows], dq[rows]
+        v = savgol_filter(vs, w, 3)[h:-h]
+        dq_of_q = savgol_filter(qs, w, 3, deriv=1, delta=dt)[h:-h]
+        acc = savgol_filter(vs, w, 3, deriv=1, delta=dt)[h:-h]
+        es.append(v - dq_of_q)
+        xs.append(acc)
+    if not es:
+        return 0.0, float("inf")
+    e, x = np.concatenate(es), np.concatenate(xs)
+    sxx = float(x @ x)
+    if not sxx > 0:
+        return 0.0, float("inf")
+    lag = -float(e @ x) / sxx
+    r = e + lag * x
+    tau = float(np.mean([autocorrelation_time(ei + lag * xi) for ei, xi in zip(es, xs,
+                                                                              strict=True)]))
+    var = float(r @ r) / max(r.size - 1, 1) * tau / sxx
+    return lag, float(np.sqrt(var)) if var > 0 else float("inf")
+
+
+#: An extreme value held on at least this many samples can be a saturation level.
+CLIP_MIN_SAMPLES = 5
+#: ... when it holds this many times the samples of the level just inside it (a quantised
+#: column's extreme level holds 1-3x its neighbour's near a smooth peak).
+CLIP_RATIO = 10.0
+
+
+def clipped(x: np.ndarray) -> np.ndarray:
+    """Samples of a column that sit on a saturation level (clipped before logging).
+
+    A continuous-valued column takes its maximum (minimum) once; a clipped one holds it on
+    every sample the true value exceeded the limit. An extreme level is a clip when it holds
+    at least :data:`CLIP_MIN_SAMPLES` samples and :data:`CLIP_RATIO` times as many as the
+    equally wide band just inside it (one quantisation step, or the float resolution of a
+    continuous column), so that a quantised column's top level near a smooth peak is none.
+
+    Args:
+        x: the column's samples (column units).
+
+    Returns:
+        Boolean mask, shape like ``x`` (all False when nothing is clipped).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    out = np.zeros(x.size, dtype=bool)
+    if x.size < 3 * CLIP_MIN_SAMPLES or not np.all(np.isfinite(x)):
+        return out
+    q = quantisation_step(x)
+    scale = max(float(np.max(np.abs(x))), 1e-300)
+    width = q if q is not None else 1e-9 * scale
+    for level, sign in ((float(np.max(x)), 1.0), (float(np.min(x)), -1.0)):
+        at = np.abs(x - level) <= 0.5 * width
+        d = sign * (level - x)                       # distance inside the level (≥ 0)
+        inside = int(np.count_nonzero((d > 0.5 * width) & (d <= 1.5 * width)))
+        n = int(np.count_nonzero(at))
+        if n >= CLIP_MIN_SAMPLES and n >= CLIP_RATIO * max(inside, 1):
+            out |= at
+    return out
 
 
 def autocorrelation_time(r: np.ndarray) -> float:

@@ -1489,6 +1489,17 @@ class Fitter:
                 out[name] = float(np.mean(v > 0))
         return out
 
+    def _low_passed_motion(self) -> list[str]:
+        """Position columns low-passed before logging (:attr:`ColumnErrorModel.low_passed`).
+
+        Their filter delays the logged motion behind the logged input exactly as an input
+        delay would (a 2nd-order Butterworth at 20 Hz: about 11 ms), so a delay fitted on
+        them cannot be attributed. Empty for systems without position columns.
+        """
+        models = getattr(self.prepared, "column_models", None) or {}
+        cols = getattr(getattr(self.sys, "columns", None), "q", None) or ()
+        return [c for c in cols if c in models and models[c].low_passed]
+
     def _structural(self, fit: FitResult, hyp: tuple[Term, ...],
                     candidates: Sequence[Term]) -> dict[tuple, str]:
         """Terms of a picked hypothesis the data cannot identify at all, with the reason.
@@ -1512,6 +1523,10 @@ class Fitter:
           input over the recording's valid rows (the input's excitation, not the split's),
           as the fit reads it (through the equation's filter) against the error the fit
           leaves there per independent row (:meth:`_excitation_floor`).
+        * A lag of the input (a nonlinear parameter in seconds acting on the input: an
+          input delay) when the position columns were low-passed before logging
+          (:meth:`_low_passed_motion`): a sensor filter's lag and an actuator delay are
+          the same function of the data; the latency is fitted, not named.
         * An effect with ``confusable_with`` partners at the same channel (a dead zone
           beside a torque bias and a Coulomb friction): undetermined with them fitted
           beside it by the same test as the symmetry partners (:meth:`_determined`).
@@ -1531,6 +1546,20 @@ class Fitter:
                               "where a constant and an effect whose sign follows the "
                               "direction are the same; record both directions to tell them "
                               "apart")
+        lagged = self._low_passed_motion()
+        for t in hyp:
+            if lagged and t.key not in out and _input_lag(t.effect):
+                lag = ", ".join(f"{v:.4g} {u}" for v, u in zip(
+                    np.atleast_1d(fit.nl[fit.terms.index(t)]), t.effect.nl_units,
+                    strict=False))
+                out[t.key] = (f"{t.effect.label} at {t.channel} ({lag}) is not identifiable: "
+                              f"{', '.join(lagged)} {'was' if len(lagged) == 1 else 'were'} "
+                              "low-passed before logging (the upper half of "
+                              "the spectrum is not white), and a filter's lag of the logged "
+                              "motion and a delay of the input are the same function of the "
+                              "data; the latency between the logged input and the logged "
+                              "motion is fitted, its cause (actuator or sensor filter) cannot "
+                              "be told")
         held = self.prepared.held_input
         for i, t in enumerate(fit.terms):
             if t not in hyp or t.key in out or t.effect.excitation is None or \
@@ -1919,6 +1948,12 @@ class Fitter:
 def _p_of(entry: dict[str, Any]) -> float:
     """The p-value of a ``tried`` entry as a float."""
     return float(entry["p_value"])
+
+
+def _input_lag(effect: Any) -> bool:
+    """Whether an effect is a time lag of the input (acts on the input, a parameter in s)."""
+    return bool(getattr(effect, "on_input", False)) and "s" in tuple(
+        getattr(effect, "nl_units", ()))
 
 
 def _ratio_text(fit: FitResult, term: Term) -> str:

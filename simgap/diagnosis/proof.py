@@ -150,14 +150,19 @@ def _matches(inj: InjectedEffect, found: list[dict[str, Any]]) -> tuple[bool, fl
 
 
 def run_case(effects: list[InjectedEffect], model: str, seed: int,
-             duration: float | None = None, recording: Recording | None = None) -> CaseResult:
-    """Generate (unless given), diagnose blind, and score one case."""
+             duration: float | None = None, recording: Recording | None = None,
+             params: dict[str, Any] | None = None) -> CaseResult:
+    """Generate (unless given), diagnose blind, and score one case.
+
+    ``params`` overrides the diagnosis's nominal parameters (a recording generated with
+    another nominal than the default); the generator's own nominal is the caller's.
+    """
     kw: dict[str, Any] = {"seed": seed}
     if duration is not None:
         kw["duration"] = duration
     rec = recording or generate(model, effects, **kw)
     blind = Recording(name=rec.name, columns=dict(rec.columns))  # no meta
-    rep = diagnose(blind, model)
+    rep = diagnose(blind, model, params)
     found = rep.effects
     named, err, z = True, 0.0, 0.0
     for inj in effects:

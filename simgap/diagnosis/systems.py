@@ -40,7 +40,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter, savgol_coeffs
 
 from simgap.diagnosis.effects import ARM_EFFECTS, BICYCLE_EFFECTS, MECHANICAL_EFFECTS, Effect
-from simgap.diagnosis.errormodel import MAD_TO_STD
+from simgap.diagnosis.errormodel import LAG_Z, MAD_TO_STD, clipped, velocity_lag
 from simgap.diagnosis.forms import EffectContext, Prepared, mass_split
 from simgap.diagnosis.identifiability import Symmetry
 from simgap.diagnosis.residual import (
@@ -750,6 +750,65 @@ class MechanicalSystem:
                      velocity_from_q=from_q)
         return plan, pre, np.asarray([noise[k] for k in src])
 
+    def _clipped_rows(self, raw: Mapping[str, np.ndarray], smoother: Any,
+                      warn: list[str]) -> np.ndarray:
+        """Rows (N, n) whose equation reads a clipped input sample (not fitted, not scored).
+
+        A logged input held on its saturation level (:func:`.errormodel.clipped`) is not
+        the input that acted while the true one exceeded the limit: the residual there is
+        the clip, no effect. Every row whose filter window (one window wide, per segment)
+        touches such a sample is left out of fitting and scoring for that channel, and the
+        report says so. Built-in arm only (one input column per channel).
+        """
+        c = self.columns
+        n = len(next(iter(raw.values())))
+        out = np.zeros((n, self.n_channels), dtype=bool)
+        if not self.is_manipulator or len(c.u) != self.n_channels:
+            return out
+        for j, k in enumerate(c.u):
+            hit = clipped(raw[k])
+            if not hit.any():
+                continue
+            near = np.convolve(hit.astype(float), np.ones(smoother.window), mode="same") > 0
+            out[:, j] = near
+            lo, hi = float(np.min(raw[k][hit])), float(np.max(raw[k][hit]))
+            warn.append(f"{k} is clipped: {int(hit.sum())} samples sit on its saturation "
+                        f"level{'s' if lo != hi else ''} ({lo:.4g}"
+                        f"{'' if lo == hi else f', {hi:.4g}'}); the {int(near.sum())} rows "
+                        "whose equation reads them are not fitted or scored (the logged "
+                        "input is not the one that acted there)")
+        return out
+
+    def _lagged_velocities(self, raw: Mapping[str, np.ndarray], grid: Any,
+                           models: Mapping[str, Any], bad: list[tuple[str, str]]
+                           ) -> list[str]:
+        """One line per velocity column that lags (or leads) its angle's derivative.
+
+        A velocity logged δ late (a backward difference: half a sample; a drive's moving
+        average or low-pass: its group delay) fits as an input delay δ on a clean log
+        (:func:`simgap.diagnosis.errormodel.velocity_lag`). When the angle's own error is
+        modelled (white or quantised), the angle's derivative has no such lag and is used
+        instead (on MuJoCo and user models too: measured, a backward-difference velocity
+        named a 0.7-0.9 ms actuator delay at both joints of clean MJCF arm logs).
+        """
+        c, out = self.columns, []
+        done = {v for v, _ in bad}
+        for v, p in zip(c.dq, c.q, strict=True):
+            # the angle's derivative is a remedy only when the angle's own error is modelled:
+            # not when it too is heavy-tailed or low-passed (a 10 Hz Butterworth angle lags
+            # more and smears a friction reversal more than a drive's moving-average dq)
+            if v in done or models[p].low_passed or (models[p].heavy_tailed
+                                                     and not _quantised(models[p])):
+                continue
+            lag, se = velocity_lag(raw[p], raw[v], grid.dt, grid.segment)
+            if abs(lag) > LAG_Z * se:
+                out.append(f"{v} {'lags' if lag > 0 else 'leads'} the derivative of {p} by "
+                           f"{1e3 * abs(lag):.3g} ms ({abs(lag) / se:.0f} standard errors; a "
+                           "backward difference or a filter upstream?): a lag of the "
+                           f"velocity would read as an input delay; differentiating {p} "
+                           "instead")
+        return out
+
     def prepare(self, rec: Recording) -> Prepared:
         """Filter the recording; the residual (N·m or N), its noise floor, the signals."""
         c = self.columns
@@ -760,6 +819,7 @@ class MechanicalSystem:
         warn = grid_warnings(grid)
         models = error_models(raw, grid.segment)
         from_q = not c.dq
+        lagged: list[str] = []
         if c.dq:
             # the angle's derivative is a remedy only when the angle's own error is modelled
             # (white or quantised): when it too shows unmodelled heavy tails (both columns
@@ -770,6 +830,10 @@ class MechanicalSystem:
             bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True)
                    if (models[v].filtered_upstream or _quantised(models[v]))
                    and not (models[p].heavy_tailed and not _quantised(models[p]))]
+            lagged = self._lagged_velocities(raw, grid, models, bad)
+            if lagged:
+                from_q = True
+                warn += lagged
             if bad:
                 from_q = True
                 warn += [(f"{v} is quantised (step {models[v].quantum:.4g}, a finite "
@@ -828,6 +892,7 @@ class MechanicalSystem:
         scale = np.asarray(c.u_scale or (1.0,) * len(c.u))
         u_hold = np.stack([raw[k] for k in c.u], axis=1) * scale
         valid = smoother.valid(len(t))
+        clip = self._clipped_rows(raw, smoother, warn)
         return Prepared(t=t, residual=res, noise_rms=floor, signals=sig,
                         smoother=smoother, resampled=grid.resampled, column_noise=noise,
                         segment=grid.segment, column_models=models,
@@ -836,7 +901,8 @@ class MechanicalSystem:
                         valid=valid, plan=plan, inputs=u_hold,
                         # what an input delay shifts
                         held_input=_held(u_hold, plan.hold, interval=kernel is not None),
-                        coulomb_sigma=sigma, fit_mask=self._fit_mask(sig, sigma, valid),
+                        coulomb_sigma=sigma,
+                        fit_mask=self._fit_mask(sig, sigma, valid) & ~clip,
                         state_columns=tuple((k, j) for k in ("q", "dq")
                                             for j in range(sig["q"].shape[1])),
                         state_derivative=sig["ddq"],
