@@ -115,7 +115,7 @@ from simgap.diagnosis import identifiability, validation
 from simgap.diagnosis.effects import VOCABULARY_SPECS, Effect, report_params
 from simgap.diagnosis.errormodel import autocorrelation_time
 from simgap.diagnosis.forms import Prepared
-from simgap.diagnosis.significance import likelihood_ratio
+from simgap.diagnosis.significance import effective_tests, likelihood_ratio
 
 #: Family-wise significance level of one selection round (divided by the terms tried).
 ALPHA = 0.01
@@ -140,6 +140,14 @@ FAMILIES = (("coulomb_friction", "viscous_friction"),)
 #: linear parameters + 1) floats.
 NL_CACHE = 48
 TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effective samples"
+#: Selection tests read K-fold blocked cross-validation errors over the fit part
+#: (:meth:`Fitter.cv_errors`: every fit-part block held out once) instead of the one
+#: validation part; the outer test part is untouched either way.
+CROSS_VALIDATE = True
+#: A round's level is :data:`ALPHA` divided by the effective number of tests among its
+#: hypotheses (:func:`.significance.effective_tests`, from the correlation of their
+#: held-out directions) instead of their number (Bonferroni).
+EFFECTIVE_TESTS = True
 
 
 @dataclass(frozen=True)
@@ -256,6 +264,43 @@ REDUCE_ROWS = 1 << 13
 REDUCE_BLOCK_ROWS = 1 << 15
 
 
+def normal_lstsq(gram: np.ndarray, rhs: np.ndarray, lower: np.ndarray, upper: np.ndarray
+                 ) -> np.ndarray:
+    """Argmin ||x·θ − b|| subject to lower ≤ θ ≤ upper, from xᵀx and xᵀb only.
+
+    With the columns scaled to unit diagonal (units cannot change the answer), the
+    eigen-decomposition xᵀx = V Λ Vᵀ gives R = Λ^½ Vᵀ and c = Λ^-½ Vᵀ xᵀb with
+    ||x·θ − b||² = ||R·θ − c||² + const: the same bounded problem on (k, k) numbers
+    (``scipy.optimize.lsq_linear``, bvls). Directions with an eigenvalue below 1e-10 of the
+    largest carry no information on these rows and are left out (R padded with zero rows).
+    This lets the K-fold cross-validation fit every fold from per-fold sums
+    (:meth:`Fitter.cv_errors`) without the rows.
+
+    Args:
+        gram: (k, k) xᵀx.
+        rhs: (k,) xᵀb.
+        lower: (k,) lower bounds (−inf allowed).
+        upper: (k,) upper bounds (inf allowed).
+    """
+    k = len(rhs)
+    d = np.sqrt(np.clip(np.diag(gram), 0.0, None))
+    d = np.where(d > 0, d, 1.0)
+    g = gram / np.outer(d, d)
+    lam, vec = np.linalg.eigh(g)
+    keep = lam > 1e-10 * max(float(lam.max()), 0.0) if k else lam > 0
+    if k == 0 or not keep.any():
+        return np.clip(np.zeros(k), lower, upper)
+    root = np.sqrt(lam[keep])
+    r = np.zeros((k, k))
+    r[:int(keep.sum())] = (vec[:, keep] * root).T
+    c = np.zeros(k)
+    c[:int(keep.sum())] = (vec[:, keep].T @ (rhs / d)) / root
+    lo, hi = np.asarray(lower, float) * d, np.asarray(upper, float) * d
+    if not (np.isfinite(lo).any() or np.isfinite(hi).any()):
+        return (vec[:, keep] @ (c[:int(keep.sum())] / root)) / d
+    return lsq_linear(r, c, bounds=(lo, hi), method="bvls").x / d
+
+
 def bounded_lstsq(x: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                   method: str = "trf") -> np.ndarray:
     """Argmin ||x·θ − b|| subject to lower ≤ θ ≤ upper (``scipy.optimize.lsq_linear``).
@@ -294,6 +339,10 @@ class Fitter:
             default: the prepared ``fit_mask``.
         segments: (N,) segment label per grid row (a new label after each gap); None: one
             segment.
+        cross_validate: test the selection's hypotheses on K-fold blocked
+            cross-validation errors (:meth:`cv_errors`); None: :data:`CROSS_VALIDATE`.
+        effective: share a round's level by the effective number of tests
+            (:func:`.significance.effective_tests`); None: :data:`EFFECTIVE_TESTS`.
 
     Raises:
         TypeError: called the old way, ``Fitter(system, residual, noise, ...)``: the form
@@ -302,12 +351,16 @@ class Fitter:
 
     def __init__(self, system: Any, prepared: Prepared,
                  train_fraction: float = TRAIN_FRACTION, mask: np.ndarray | None = None,
-                 segments: np.ndarray | None = None) -> None:
+                 segments: np.ndarray | None = None, *,
+                 cross_validate: bool | None = None,
+                 effective: bool | None = None) -> None:
         if not isinstance(prepared, Prepared):
             raise TypeError("Fitter(form, prepared, ...): pass the Prepared data that "
                             "form.prepare(recording) returned (the form keeps no recording)")
         self.sys = system
         self.prepared = prepared
+        self.cross_validate = CROSS_VALIDATE if cross_validate is None else bool(cross_validate)
+        self.effective = EFFECTIVE_TESTS if effective is None else bool(effective)
         residual, noise = prepared.residual, prepared.noise_rms
         self.n, self.c = residual.shape
         mask = prepared.fit_mask if mask is None else mask
@@ -519,6 +572,39 @@ class Fitter:
         sol = bounded_lstsq(x, y - off, lower, upper,
                             method="bvls" if x.shape[1] <= 12 else "trf")
         return sol, y - off - x @ sol, x
+
+    def cv_errors(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> np.ndarray:
+        """Whitened K-fold blocked cross-validation errors (fit rows, C) of ``terms``.
+
+        Each fold of the fit part (:attr:`.validation.Split.fold`: region- and
+        activity-stratified blocks, the validation blocks one of them) is predicted by the
+        terms' linear parameters fitted on the other folds, with the nonlinear ones held at
+        ``nls``. The linear fits come from per-fold sums xᵀx and xᵀy of the whitened design
+        (:func:`normal_lstsq`): one design per hypothesis on the fit rows, K small bounded
+        problems, no refit of the rows. The effects' context is left as it was.
+
+        Returns:
+            (len(fit rows), C) held-out errors, each row predicted by the fold fit that did
+            not see it, in the fit rows' (time) order.
+        """
+        ctx = self.ctx
+        rows, fold = self.fit_rows, self.split.fold
+        x, off = self._design(terms, nls, rows)
+        self.ctx = ctx
+        e = self._y(rows) - off
+        if x.shape[1] == 0 or not len(fold):
+            return e.reshape(len(rows), self.c)
+        lower, upper = self._lin_bounds(terms)
+        f = np.repeat(fold, self.c)
+        k = int(fold.max()) + 1
+        sums = [(x[f == j].T @ x[f == j], x[f == j].T @ e[f == j]) for j in range(k)]
+        out = e.copy()
+        for j in range(k):
+            gram = sum(sums[i][0] for i in range(k) if i != j)
+            rhs = sum(sums[i][1] for i in range(k) if i != j)
+            theta = normal_lstsq(gram, rhs, lower, upper)
+            out[f == j] = e[f == j] - x[f == j] @ theta
+        return out.reshape(len(rows), self.c)
 
     def fit(self, terms: Sequence[Term], nl_start: Sequence[np.ndarray] | None = None,
             rows: np.ndarray | None = None, full: bool = True) -> FitResult:
@@ -737,12 +823,26 @@ class Fitter:
         return (f" (were it real at its fitted size, it would give a statistic of "
                 f"{power.expected:.3g} there, below the {power.critical:.3g} the test needs)")
 
+    def _selection_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(held-out, training) rows of the selection's tests.
+
+        The validation and training blocks; with cross-validation (every fit-part block
+        held out once, :meth:`cv_errors`) the fit part is both, so that a term's held-out
+        information equals its training information.
+        """
+        if self.cross_validate and len(self.split.fold):
+            return self.fit_rows, self.fit_rows
+        return self.valid, self.train
+
     def evaluate(self, base: FitResult, hyp: tuple[Term, ...], fit: FitResult,
-                 errors: np.ndarray | None = None) -> dict[str, Any]:
+                 errors: np.ndarray | None = None,
+                 base_errors: np.ndarray | None = None) -> dict[str, Any]:
         """Test ``fit`` (``base`` plus the hypothesis' terms) against ``base`` (validation).
 
         ``errors``: the whitened errors ``fit`` leaves on the validation rows, when ``fit``
         no longer holds its predictions (:meth:`select`); computed from it otherwise.
+        ``base_errors``: likewise for ``base`` (the cross-validation errors of
+        :meth:`cv_errors`, with ``errors`` of the same rows).
         """
         k = len(hyp)
         params: dict[str, float] = {}
@@ -754,15 +854,17 @@ class Fitter:
                  "params": params, "gain": 0.0,
                  "test": TEST_NAME, "statistic": float("nan"), "p_value": float("nan"),
                  "decision": "rejected", "reason": "", "_testable": False, "_hyp": hyp}
+        held_rows, train_rows = self._selection_rows()
         for t, nl in zip(hyp, fit.nl[-k:], strict=True):
-            if self.information(t, nl, self.valid, self.train) < validation.NO_INFORMATION:
+            if self.information(t, nl, held_rows, train_rows) < validation.NO_INFORMATION:
                 entry.update(decision="cannot test",
                              reason=f"cannot test: the held-out part holds no information "
                                     f"about {t.effect.label} at {t.channel} (its regressor "
                                     "is zero there)")
                 return entry
         limit = self.at_limit(fit)
-        g = likelihood_ratio(self._errors(base, self.valid),
+        g = likelihood_ratio(self._errors(base, self.valid) if base_errors is None
+                             else base_errors,
                              self._errors(fit, self.valid) if errors is None else errors,
                              sum(t.effect.n_params for t in hyp))
         entry.update(gain=g.share_removed, statistic=g.statistic, p_value=g.p_value)
@@ -796,7 +898,8 @@ class Fitter:
             alpha: the round's per-hypothesis level.
         """
         k = len(hyp)
-        share = max(self.information(t, nl, self.valid, self.train)
+        held_rows, train_rows = self._selection_rows()
+        share = max(self.information(t, nl, held_rows, train_rows)
                     for t, nl in zip(hyp, fit.nl[-k:], strict=True))
         if not share < validation.LOW_INFORMATION:
             return ""
@@ -857,29 +960,43 @@ class Fitter:
         sel = Selection(fit=current)
         remaining = list(candidates)
         tried: dict[tuple, dict[str, Any]] = {}
+        cv = self.cross_validate and len(self.split.fold) > 0
         while remaining and len(current.terms) < MAX_EFFECTS:
             hyps = self.hypotheses(remaining)
             # each trial fit is reduced at once to what the tests read (its parameters and
             # its errors on the validation rows): a round never holds one full-grid
             # prediction per hypothesis. The pick is refitted below (the same numbers).
+            # With cross-validation the errors are those of every fit-part fold predicted
+            # by the fits on the other folds (cv_errors), the hypothesis' nonlinear
+            # parameters held at their training-blocks values.
+            base_cv = self.cv_errors(current.terms, current.nl) if cv else None
             trials, held = [], []
             for h in hyps:
                 f = self.fit_new(current, h, full=False)
-                held.append((self._errors(f, self.valid),
-                             self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
-                             else None,
-                             self.on(f, sum(f.pred[-len(h):]), self.valid) * self.w))
+                if cv:
+                    e = self.cv_errors(f.terms, f.nl)
+                    d = base_cv - e        # the hypothesis' whitened held-out contribution
+                    held.append((e, (d / self.w).ravel() if len(h) == 1 else None, d))
+                else:
+                    held.append((self._errors(f, self.valid),
+                                 self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
+                                 else None,
+                                 self.on(f, sum(f.pred[-len(h):]), self.valid) * self.w))
                 trials.append((h, _light(f)))
                 del f
-            evals = [self.evaluate(current, h, f, errors=e)
+            evals = [self.evaluate(current, h, f, errors=e, base_errors=base_cv)
                      for (h, f), (e, *_) in zip(trials, held, strict=True)]
-            testable = [e for e in evals if e["_testable"]]
-            alpha = ALPHA / max(len(testable), 1)
+            testable = [i for i, e in enumerate(evals) if e["_testable"]]
+            n_tests = float(len(testable))
+            if self.effective and len(testable) > 1:
+                n_tests = effective_tests([held[i][2] for i in testable])
+            alpha = ALPHA / max(n_tests, 1.0)
+            shared = (f"{len(testable)} hypotheses tried" if n_tests == len(testable) else
+                      f"{len(testable)} hypotheses tried, {n_tests:.3g} effective tests")
             for e in evals:
                 if e["_testable"]:
                     e["reason"] = (f"held-out gain not significant (p = {e['p_value']:.2g} ≥ "
-                                   f"{alpha:.2g}, the level {ALPHA} shared by "
-                                   f"{len(testable)} hypotheses tried)")
+                                   f"{alpha:.2g}, the level {ALPHA} shared by {shared})")
                 tried[tuple(t.key for t in e["_hyp"])] = e
             ok = [i for i, e in enumerate(evals)
                   if e["_testable"] and e["p_value"] < alpha and e["gain"] > 0]
@@ -891,7 +1008,9 @@ class Fitter:
             gains = np.array([e["gain"] if e["_testable"] else -np.inf for e in evals])
             sel.history.append({"runner_up": sorted(
                 ((e["effect"] + "@" + e["channel"], float(e["gain"]))
-                 for e in evals if e["_testable"]), key=lambda x: -x[1])[:4]})
+                 for e in evals if e["_testable"]), key=lambda x: -x[1])[:4],
+                "tests": len(testable), "effective_tests": float(n_tests),
+                "folds": self.split.folds if cv else 1})
             if not ok:
                 sel.history[-1].update(accepted=False)
                 break
@@ -1281,10 +1400,13 @@ class Fitter:
         while len(current.terms) > 1:
             alpha = ALPHA / len(current.terms)
             worst = None     # max over (p, -share) as max() picks it: the first of equals
+            cv = self.cross_validate and len(self.split.fold) > 0
+            mine = self.cv_errors(current.terms, current.nl) if cv else \
+                self._errors(current, self.valid)
             for i in range(len(current.terms)):
                 f = self._drop(current, i)
-                g = likelihood_ratio(self._errors(f, self.valid),
-                                     self._errors(current, self.valid),
+                g = likelihood_ratio(self.cv_errors(f.terms, f.nl) if cv else
+                                     self._errors(f, self.valid), mine,
                                      current.terms[i].effect.n_params)
                 p = g.p_value if g.testable else 1.0
                 if worst is None or (p, -g.share_removed) > worst[:2]:

@@ -33,6 +33,7 @@ conservative reference.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -315,3 +316,35 @@ def structure_test(residual: np.ndarray, variables: dict[str, np.ndarray],
                          statistic=best.statistic, dof=best.dof, variable=best_name,
                          share_removed=best.share_removed,
                          effective_samples=float(best.effective_samples[0]), testable=True)
+
+
+def effective_tests(directions: Sequence[np.ndarray | None]) -> float:
+    """Effective number of independent tests among correlated hypotheses (Li & Ji 2005).
+
+    Hypotheses tried in one selection round are not independent tests: a Coulomb friction,
+    the Coulomb + viscous family that contains it and a dead zone that equals it on a
+    command of one sign fit nearly the same held-out direction, and under "no effect" their
+    statistics move together. Bonferroni over all of them counts one question several
+    times. Here each hypothesis is represented by its held-out direction (the change of the
+    held-out prediction it makes, flattened over rows and channels); the eigenvalues λᵢ of
+    the correlation matrix of these directions give M_eff = Σᵢ [1(|λᵢ| ≥ 1) + (|λᵢ| −
+    ⌊|λᵢ|⌋)] (Li & Ji, Heredity 95, 2005): M hypotheses with orthogonal directions count M,
+    identical ones count 1. A hypothesis with no direction (``None`` or constant) counts
+    as one test of its own.
+
+    Args:
+        directions: per hypothesis, its held-out direction (any units; only correlations
+            are read), all of one length, or None.
+
+    Returns:
+        M_eff, between 1 and the number of hypotheses (0 when there are none).
+    """
+    vecs = [np.asarray(d, dtype=np.float64).ravel() for d in directions
+            if d is not None and np.size(d) > 1 and np.std(d) > 0]
+    lone = len(directions) - len(vecs)
+    if len(vecs) <= 1:
+        return float(len(vecs) + lone)
+    corr = np.corrcoef(np.stack(vecs))
+    lam = np.abs(np.linalg.eigvalsh(np.nan_to_num(corr)))
+    m_eff = float(np.sum((lam >= 1.0) + (lam - np.floor(lam))))
+    return float(min(max(m_eff, 1.0), len(vecs))) + lone

@@ -134,6 +134,9 @@ class Split:
         confirm_block: block label of each ``test`` row (-1 for the tail).
         guard: rows next to a confirmation block, in no part (the smoothing filter
             correlates them with the block).
+        fold: cross-validation fold of each ``fit`` row (:func:`fit_folds`): 0 for the
+            validation blocks, 1 … K−1 for the training blocks, spread over the same
+            activity × region × time order; empty when not made.
     """
 
     train: np.ndarray
@@ -145,6 +148,36 @@ class Split:
     tail: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     confirm_block: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     guard: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    fold: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    @property
+    def folds(self) -> int:
+        """Number of cross-validation folds of the fit part (0 when none were made)."""
+        return int(self.fold.max()) + 1 if len(self.fold) else 0
+
+
+def fit_folds(rest: np.ndarray, chosen: np.ndarray) -> dict[int, int]:
+    """Fold of each fit-part block: the validation blocks, then the others spread.
+
+    The validation blocks (``chosen``, a systematic sample of ``rest``) are fold 0; the
+    other blocks, in the order of ``rest`` (input activity, operating region, then time),
+    are dealt to folds 1 … K−1 in turn, with K − 1 the number of validation-sized shares
+    they hold (2 at a 70/30 split: three folds of about equal size). Dealing in that order
+    is systematic sampling again: each fold holds every region and activity level in
+    proportion, as the validation blocks do.
+
+    Args:
+        rest: the fit part's blocks in stratum order.
+        chosen: the validation blocks (a subset of ``rest``).
+
+    Returns:
+        block label -> fold.
+    """
+    others = [int(b) for b in rest if b not in set(np.asarray(chosen).tolist())]
+    k = max(1, int(round(len(others) / max(len(chosen), 1))))
+    out = {int(b): 0 for b in chosen}
+    out.update({b: 1 + i % k for i, b in enumerate(others)})
+    return out
 
 
 def usable_rows(n: int, window: int, mask: np.ndarray, segment: np.ndarray | None,
@@ -383,12 +416,14 @@ def split_rows(t: np.ndarray, rows: np.ndarray, segment: np.ndarray | None,
     is_valid = np.isin(labels, chosen) & ~is_guard
     is_train = ~(is_valid | is_conf | is_guard)
     fit = early[is_valid | is_train]
+    fold_of = fit_folds(rest, chosen)
+    fold = np.array([fold_of[int(b)] for b in labels[is_valid | is_train]], dtype=np.int64)
     test = np.concatenate([early[is_conf], tail])
     return Split(train=early[is_train], valid=early[is_valid], valid_block=labels[is_valid],
                  fit=fit, test=test, t_split=float(0.5 * (t[early[-1]] + t[tail[0]])),
                  tail=tail, confirm_block=np.concatenate(
                      [labels[is_conf], np.full(len(tail), -1, dtype=np.int64)]),
-                 guard=early[is_guard])
+                 guard=early[is_guard], fold=fold)
 
 
 def gap_segments(t_recorded: np.ndarray, t_grid: np.ndarray
@@ -541,4 +576,5 @@ def refine(split: Split, coarse: np.ndarray, fine: np.ndarray, step: int) -> Spl
                  valid_block=labels(split.valid, split.valid_block), fit=part(split.fit),
                  test=part(split.test), t_split=split.t_split, tail=part(split.tail),
                  confirm_block=labels(split.test, split.confirm_block),
-                 guard=part(split.guard))
+                 guard=part(split.guard),
+                 fold=labels(split.fit, split.fold) if len(split.fold) else split.fold)
