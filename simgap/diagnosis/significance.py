@@ -319,18 +319,19 @@ def structure_test(residual: np.ndarray, variables: dict[str, np.ndarray],
 
 
 def effective_tests(directions: Sequence[np.ndarray | None]) -> float:
-    """Effective number of independent tests among correlated hypotheses (Li & Ji 2005).
+    """Effective number of independent tests among correlated hypotheses (Galwey 2009).
 
     Hypotheses tried in one selection round are not independent tests: a Coulomb friction,
     the Coulomb + viscous family that contains it and a dead zone that equals it on a
     command of one sign fit nearly the same held-out direction, and under "no effect" their
     statistics move together. Bonferroni over all of them counts one question several
     times. Here each hypothesis is represented by its held-out direction (the change of the
-    held-out prediction it makes, flattened over rows and channels); the eigenvalues λᵢ of
-    the correlation matrix of these directions give M_eff = Σᵢ [1(|λᵢ| ≥ 1) + (|λᵢ| −
-    ⌊|λᵢ|⌋)] (Li & Ji, Heredity 95, 2005): M hypotheses with orthogonal directions count M,
-    identical ones count 1. A hypothesis with no direction (``None`` or constant) counts
-    as one test of its own.
+    held-out prediction it makes, flattened over rows and channels); the eigenvalues λᵢ ≥ 0
+    of the correlation matrix of these M directions give M_eff = (Σᵢ √λᵢ)² / Σᵢ λᵢ (Galwey,
+    Genet. Epidemiol. 33, 2009): M orthogonal directions count M, M identical (or
+    sign-flipped) ones count 1, and the count moves continuously in between (Li & Ji's
+    rule jumps: two directions correlated 0.999 count 2.0 there, identical ones 1). A
+    hypothesis with no direction (``None`` or constant) counts as one test of its own.
 
     Args:
         directions: per hypothesis, its held-out direction (any units; only correlations
@@ -344,7 +345,7 @@ def effective_tests(directions: Sequence[np.ndarray | None]) -> float:
     lone = len(directions) - len(vecs)
     if len(vecs) <= 1:
         return float(len(vecs) + lone)
-    corr = np.corrcoef(np.stack(vecs))
-    lam = np.abs(np.linalg.eigvalsh(np.nan_to_num(corr)))
-    m_eff = float(np.sum((lam >= 1.0) + (lam - np.floor(lam))))
+    corr = np.nan_to_num(np.corrcoef(np.stack(vecs)))
+    lam = np.clip(np.linalg.eigvalsh(corr), 0.0, None)
+    m_eff = float(np.sum(np.sqrt(lam)) ** 2 / np.sum(lam))
     return float(min(max(m_eff, 1.0), len(vecs))) + lone
