@@ -573,7 +573,8 @@ class Fitter:
                             method="bvls" if x.shape[1] <= 12 else "trf")
         return sol, y - off - x @ sol, x
 
-    def cv_errors(self, terms: Sequence[Term], nls: Sequence[np.ndarray]) -> np.ndarray:
+    def cv_errors(self, terms: Sequence[Term], nls: Sequence[np.ndarray],
+                  extra: np.ndarray | None = None) -> np.ndarray:
         """Whitened K-fold blocked cross-validation errors (fit rows, C) of ``terms``.
 
         Each fold of the fit part (:attr:`.validation.Split.fold`: region- and
@@ -582,6 +583,12 @@ class Fitter:
         ``nls``. The linear fits come from per-fold sums xᵀx and xᵀy of the whitened design
         (:func:`normal_lstsq`): one design per hypothesis on the fit rows, K small bounded
         problems, no refit of the rows. The effects' context is left as it was.
+
+        Args:
+            terms: the terms.
+            nls: their nonlinear parameters.
+            extra: (fit rows, C, m) further whitened regressors fitted beside the terms,
+                unbounded (the direction-offset probe, :meth:`_direction_offset_errors`).
 
         Returns:
             (len(fit rows), C) held-out errors, each row predicted by the fold fit that did
@@ -592,9 +599,14 @@ class Fitter:
         x, off = self._design(terms, nls, rows)
         self.ctx = ctx
         e = self._y(rows) - off
+        lower, upper = self._lin_bounds(terms)
+        if extra is not None:
+            m = extra.shape[2]
+            x = np.concatenate([x, extra.reshape(len(rows) * self.c, m)], axis=1)
+            lower = np.concatenate([lower, np.full(m, -np.inf)])
+            upper = np.concatenate([upper, np.full(m, np.inf)])
         if x.shape[1] == 0 or not len(fold):
             return e.reshape(len(rows), self.c)
-        lower, upper = self._lin_bounds(terms)
         f = np.repeat(fold, self.c)
         k = int(fold.max()) + 1
         sums = [(x[f == j].T @ x[f == j], x[f == j].T @ e[f == j]) for j in range(k)]
@@ -1628,10 +1640,15 @@ class Fitter:
         fitted by least squares to what ``without`` leaves on the training rows; of the
         form's direction variables (those that take both signs), the one with the
         smallest validation error is kept. None when no direction variable takes both
-        signs.
+        signs. With cross-validation (:meth:`cv_errors`) the probe is fitted beside the
+        linear parameters of ``without``'s terms, fold by fold, and its errors are the
+        cross-validation errors on the fit part: the comparison the selection's tests made.
         """
         best, best_sse = None, np.inf
-        e_train, e_valid = self._errors(without, self.train), self._errors(without, self.valid)
+        cv = self.cross_validate and len(self.split.fold) > 0
+        if not cv:
+            e_train = self._errors(without, self.train)
+            e_valid = self._errors(without, self.valid)
         for v in self._rates().values():
             full = np.zeros(self.n)
             full[self.fit_rows] = np.sign(v)
@@ -1641,6 +1658,13 @@ class Fitter:
                 x[:, ch] = full
                 # held between the fit rows: the sign of the nearest fit row before
                 cols.append(self.prepared.smoother(self._hold_rows(x)) * self.mask * self.w)
+            if cv:
+                ev = self.cv_errors(without.terms, without.nl, extra=np.stack(
+                    [c[self.fit_rows] for c in cols], axis=-1))
+                sse = float(np.sum(ev**2))
+                if sse < best_sse:
+                    best, best_sse = ev, sse
+                continue
             xt = np.stack([c[self.train] for c in cols], axis=-1).reshape(-1, self.c)
             xv = np.stack([c[self.valid] for c in cols], axis=-1).reshape(-1, self.c)
             coef = np.linalg.lstsq(xt, e_train.ravel(), rcond=None)[0]
