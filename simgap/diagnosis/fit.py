@@ -16,12 +16,19 @@ rollout comparison needs contiguous); it is never fitted and never used to pick.
 
 Forward selection: in each round every remaining term is fitted together with the terms
 already chosen (training blocks), and its held-out gain over the current set is *tested*
-on the validation blocks (:func:`.significance.likelihood_ratio`: per channel, a Gaussian
+on blocked K-fold cross-validation errors of the fit part (:meth:`Fitter.cv_errors`,
+:data:`CROSS_VALIDATE`: every fold predicted by the linear fit on the others, the
+nonlinear parameters held at their training-blocks values, the folds pooled; see
+:mod:`.validation`), or on the validation blocks alone with the option off
+(:func:`.significance.likelihood_ratio`: per channel, a Gaussian
 log-likelihood ratio whose variance is the error the candidate leaves there — a floor that
 includes model-structure error, not sensor noise alone — with N/τ effective samples, summed
 over channels, χ² with the candidate's number of parameters). A term is a candidate when it
 is significant at :data:`ALPHA` divided by the number of terms tried in that round (the best
-of many is picked on the same data), when the validation part holds information about it
+of many is picked on the same data; Bonferroni, valid whatever their dependence; the
+effective number of tests from the correlation of their held-out directions,
+:func:`.significance.effective_tests`, is recorded per round and is an option,
+:data:`EFFECTIVE_TESTS`), when the validation part holds information about it
 (:func:`.validation.information_share`; otherwise "cannot test") and when no fitted
 parameter sits on a plausibility limit. Among candidates the largest per-channel share of
 the held-out loss removed wins (every channel counts by its own remaining error, so
