@@ -1000,8 +1000,12 @@ class Fitter:
                 f = self.fit_new(current, h, full=False)
                 if cv:
                     e = self.cv_errors(f.terms, f.nl)
-                    d = base_cv - e        # the hypothesis' whitened held-out contribution
-                    held.append((e, (d / self.w).ravel() if len(h) == 1 else None, d))
+                    # the hypothesis' whitened held-out contribution, read only for
+                    # correlations (aliases, look-alikes, the effective test count): single
+                    # precision, as the fit part holds ~3x the validation rows
+                    d = (base_cv - e).astype(np.float32)
+                    held.append((e, (d / self.w.astype(np.float32)).ravel() if len(h) == 1
+                                 else None, d))
                 else:
                     held.append((self._errors(f, self.valid),
                                  self.on(f, f.pred[-1], self.valid).ravel() if len(h) == 1
