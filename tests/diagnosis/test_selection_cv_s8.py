@@ -78,12 +78,12 @@ def test_cv_errors_predict_each_fold_from_the_others_only():
     reg = np.sin(np.arange(N) * DT * 2.0)
     residual = 0.3 * reg[:, None] + rng.normal(0, 0.1, (N, 1))
     e = _effect("a", reg)
-    f0 = _fitter(Fake(), residual, np.array([0.1]))
+    f0 = _fitter(Fake(), residual, np.array([0.1]), cross_validate=True)
     base = f0.cv_errors([Term(e, 0, "c")], [np.zeros(0)])
     hit = f0.fit_rows[f0.split.fold == 1]
     moved = residual.copy()
     moved[hit] += 5.0
-    f1 = _fitter(Fake(), moved, np.array([0.1]))
+    f1 = _fitter(Fake(), moved, np.array([0.1]), cross_validate=True)
     assert np.array_equal(f1.split.fold, f0.split.fold)
     after = f1.cv_errors([Term(e, 0, "c")], [np.zeros(0)])
     k1 = f0.split.fold == 1
@@ -112,8 +112,9 @@ def test_a_look_alike_pair_counts_once_in_the_effective_count():
     reg = np.sign(np.sin(np.arange(N) * DT * 1.3))
     residual = 0.02 * reg[:, None] + rng.normal(0, 0.1, (N, 1))
     cands = [Term(_effect("a", reg), 0, "c"), Term(_effect("b", reg.copy()), 0, "c")]
-    on = _fitter(Fake(), residual, np.array([0.1]), effective=True).select(cands)
-    off = _fitter(Fake(), residual, np.array([0.1])).select(cands)
+    on = _fitter(Fake(), residual, np.array([0.1]), effective=True,
+                 cross_validate=True).select(cands)
+    off = _fitter(Fake(), residual, np.array([0.1]), cross_validate=True).select(cands)
     for sel in (on, off):
         assert sel.history[0]["tests"] == 2
         assert sel.history[0]["effective_tests"] == pytest.approx(1.0)
@@ -139,14 +140,17 @@ def test_cross_validation_uses_every_fit_row():
 
 
 def test_module_defaults():
-    """Cross-validation is what the pipeline uses; the effective count is an option."""
-    assert fit_module.CROSS_VALIDATE and not fit_module.EFFECTIVE_TESTS
+    """Both are options (measured: cross-validation adds extra effects beside a vehicle
+    mass mismatch); by default the selection is the single validation part's."""
+    assert not fit_module.CROSS_VALIDATE and not fit_module.EFFECTIVE_TESTS
     f = _fitter(Fake(), np.zeros((N, 1)), np.array([0.1]))
-    assert f.cross_validate and not f.effective
+    assert not f.cross_validate and not f.effective
+    assert _fitter(Fake(), np.zeros((N, 1)), np.array([0.1]), cross_validate=True
+                   ).cross_validate
     assert isinstance(f, Fitter)
 
 
-def test_coloured_bias_seed_2_is_named_with_cross_validation():
+def test_coloured_bias_seed_2_is_named_with_cross_validation(monkeypatch):
     """The near-floor case of s7 (coloured noise, torque bias τ0 = 0.145 N·m at joint 1,
     seed 2: p = 5.6e-4 on the one validation part, above 0.01/25): the fit part's three
     folds hold three times the held-out rows, and the bias is named within tolerance."""
@@ -154,6 +158,7 @@ def test_coloured_bias_seed_2_is_named_with_cross_validation():
     from simgap.diagnosis.proof import draw
     from tests.diagnosis.test_noise_causes_s7 import _case
 
+    monkeypatch.setattr(fit_module, "CROSS_VALIDATE", True)
     inj = draw("torque_bias", np.random.default_rng(1002))
     rep = diagnose(_case([inj], "coloured_noise", 2), "manipulator2dof")
     assert [(e["effect"], e["channel"]) for e in rep.effects] == [("torque_bias", "joint1")]
@@ -170,6 +175,7 @@ def test_half_window_coloured_inertia_is_picked_not_its_look_alike(monkeypatch):
     from tests.diagnosis.test_split_alias_s7 import _coloured_inertia_seed2, _entry
 
     monkeypatch.setattr(validation, "MIN_ROWS", 0)      # no refined rows: the s6 split
+    monkeypatch.setattr(fit_module, "CROSS_VALIDATE", True)
     rep = diagnose(_coloured_inertia_seed2(), "manipulator2dof")
     assert [(e["effect"], e["channel"]) for e in rep.effects] == \
         [("inertia_mismatch", "joint2")]
