@@ -1272,10 +1272,29 @@ class Fitter:
         amplitudes at the end of a free decay; those are listed in :attr:`untestable`.
         """
         terms, nls = list(current.terms), list(current.nl)
+        cv = self.cross_validate and len(self.split.fold) > 0
         while True:
             final = self.fit(terms, nls, rows=self.fit_rows, full=False)
             if not terms:
                 return final
+            # with cross-validation: the selection's rule (no fitted parameter on a
+            # plausibility limit) holds for the refit on the whole fit part too
+            limit = [i for i, t in enumerate(terms) if t.label in self.at_limit(final)
+                     and t.key not in self.combinations] if cv else []
+            if limit:
+                t, _ = terms.pop(limit[0]), nls.pop(limit[0])
+                text = (f"{t.effect.label} at {t.channel} is not named: refitted on the "
+                        f"whole fit part with the other effects, a parameter sits on its "
+                        f"plausibility limit ({_ratio_text(final, t)}): forced onto data it "
+                        "does not describe")
+                tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
+                                            "gain": 0.0, "test": TEST_NAME,
+                                            "statistic": None, "p_value": None})
+                tried[(t.key,)].update(decision="not confirmed", reason=text)
+                self._forget(sel, t)
+                sel.history.append({"term": t.label, "removed": True, "part": "fit",
+                                    "at_limit": True})
+                continue
             alpha = ALPHA / len(terms)
             worst = None
             left = self._errors(final, self.test)
