@@ -180,3 +180,26 @@ def test_half_window_coloured_inertia_is_picked_not_its_look_alike(monkeypatch):
     assert [(e["effect"], e["channel"]) for e in rep.effects] == \
         [("inertia_mismatch", "joint2")]
     assert _entry(rep, "spring", "joint2")["decision"] == "rejected"
+
+
+def test_cross_validation_does_not_name_a_saturation_forced_to_its_limit(monkeypatch):
+    """100 Hz vehicle log, mass mismatch (ratio 1.178), seed 0: with cross-validation a
+    tire saturation beside the mass ratio gained on the folds and was named with μ = 3.00,
+    its plausibility limit, after the refit on the whole fit part. The selection's rule
+    (no parameter on a plausibility limit) now holds for that refit too: only the mass
+    mismatch is named."""
+    from simgap.diagnosis.artefacts import ARTEFACTS
+    from simgap.diagnosis.generate import generate
+    from simgap.diagnosis.pipeline import diagnose
+    from simgap.diagnosis.proof import draw
+    from simgap.recordings import Recording
+
+    monkeypatch.setattr(fit_module, "CROSS_VALIDATE", True)
+    inj = draw("mass_mismatch", np.random.default_rng(1000))
+    rec = generate("bicycle", [inj], seed=0, duration=40.0)
+    rec = ARTEFACTS["coarse_100hz"].apply(rec, {}, np.random.default_rng(9000))
+    rep = diagnose(Recording(rec.name, dict(rec.columns)), "bicycle")
+    assert [e["effect"] for e in rep.effects] == ["mass_mismatch"]
+    (sat,) = [e for e in rep.data["tried"] if e["effect"] == "tire_saturation"
+              and e["channel"] == "rear_axle"]
+    assert sat["decision"] == "not confirmed" and "plausibility limit" in sat["reason"]
