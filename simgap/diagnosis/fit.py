@@ -152,9 +152,10 @@ TEST_NAME = "held-out likelihood ratio per channel, χ²(parameters), N/τ effec
 #: validation part; the outer test part is untouched either way. Off by default: measured
 #: (benchmarks/results/diagnosis_s8-cv_causes.md) it names the coloured-noise torque bias
 #: of seed 2 (p 5.6e-4 → 1.6e-11) and the half-window coloured inertia, but with three
-#: times the held-out rows it also confirms a tire saturation beside a vehicle mass
-#: mismatch in 3 of 6 noise-preset rows and in the proof (mass_mismatch seed 0: simulation
-#: improvement 13.2x → 6.7x), and "with extra effects" went 0 → 4 on the noise presets.
+#: times the held-out rows it also confirms real secondary structure under the wrong law:
+#: a tire saturation beside a vehicle mass mismatch, a viscous friction beside a 100 Hz
+#: Stribeck friction ("with extra effects" on the noise presets 0 → 4; 0 → 2 once a refit
+#: on a plausibility limit is refused, which also restored the proof).
 CROSS_VALIDATE = False
 #: A round's level is :data:`ALPHA` divided by the effective number of tests among its
 #: hypotheses (:func:`.significance.effective_tests`, from the correlation of their
