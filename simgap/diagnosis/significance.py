@@ -33,6 +33,7 @@ conservative reference.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -315,3 +316,48 @@ def structure_test(residual: np.ndarray, variables: dict[str, np.ndarray],
                          statistic=best.statistic, dof=best.dof, variable=best_name,
                          share_removed=best.share_removed,
                          effective_samples=float(best.effective_samples[0]), testable=True)
+
+
+def effective_tests(directions: Sequence[np.ndarray | None]) -> float:
+    """Effective number of independent tests among correlated hypotheses (Galwey 2009).
+
+    Hypotheses tried in one selection round are not independent tests: a Coulomb friction,
+    the Coulomb + viscous family that contains it and a dead zone that equals it on a
+    command of one sign fit nearly the same held-out direction, and under "no effect" their
+    statistics move together. Bonferroni over all of them counts one question several
+    times. Here each hypothesis is represented by its held-out direction (the change of the
+    held-out prediction it makes, flattened over rows and channels); the eigenvalues λᵢ ≥ 0
+    of the correlation matrix of these M directions give M_eff = (Σᵢ √λᵢ)² / Σᵢ λᵢ (Galwey,
+    Genet. Epidemiol. 33, 2009): M orthogonal directions count M, M identical (or
+    sign-flipped) ones count 1, and the count moves continuously in between (Li & Ji's
+    rule jumps: two directions correlated 0.999 count 2.0 there, identical ones 1). A
+    hypothesis with no direction (``None`` or constant) counts as one test of its own.
+
+    Args:
+        directions: per hypothesis, its held-out direction (any units; only correlations
+            are read), all of one length, or None.
+
+    Returns:
+        M_eff, between 1 and the number of hypotheses (0 when there are none).
+    """
+    vecs = [np.ravel(d) for d in directions
+            if d is not None and np.size(d) > 1 and np.std(d) > 0]
+    lone = len(directions) - len(vecs)
+    if len(vecs) <= 1:
+        return float(len(vecs) + lone)
+    # pairwise, in double precision, two directions at a time (no stacked copy of them all)
+    def centred(v: np.ndarray) -> np.ndarray:
+        c = np.asarray(v, dtype=np.float64)
+        return c - float(np.mean(c))
+
+    n = len(vecs)
+    corr = np.eye(n)
+    for i in range(n):
+        a = centred(vecs[i])
+        na = float(np.sqrt(a @ a))
+        for j in range(i + 1, n):
+            b = centred(vecs[j])
+            corr[i, j] = corr[j, i] = float(a @ b) / (na * float(np.sqrt(b @ b)))
+    lam = np.clip(np.linalg.eigvalsh(corr), 0.0, None)
+    m_eff = float(np.sum(np.sqrt(lam)) ** 2 / np.sum(lam))
+    return float(min(max(m_eff, 1.0), len(vecs))) + lone

@@ -107,12 +107,15 @@ def test_pure_noise_names_nothing_and_says_why():
 
 
 def test_cannot_test_when_the_held_out_part_holds_no_information():
-    """A regressor that is zero on every validation block: "cannot test", not "useless"."""
+    """A regressor that is zero on every validation block: "cannot test", not "useless".
+
+    The single validation part (``cross_validate=False``); with cross-validation the other
+    folds hold the regressor and test it (tests/diagnosis/test_selection_cv_s8.py)."""
     rng = np.random.default_rng(3)
     reg = np.zeros(N)
     sysm = Fake()
     r = rng.normal(0, 0.1, (N, 1))
-    fitter = _fitter(sysm, r, np.array([0.1]))
+    fitter = _fitter(sysm, r, np.array([0.1]), cross_validate=False)
     on = np.zeros(N, dtype=bool)
     on[fitter.train] = True
     for b in np.unique(fitter.split.valid_block):  # keep a window away from them
@@ -120,7 +123,7 @@ def test_cannot_test_when_the_held_out_part_holds_no_information():
         on[rows.min() - 10:rows.max() + 10] = False
     reg[on] = 1.0
     r[:, 0] += 0.5 * reg
-    fitter = _fitter(sysm, r, np.array([0.1]))
+    fitter = _fitter(sysm, r, np.array([0.1]), cross_validate=False)
     sel = fitter.select([Term(_effect("hidden", reg), 0, "c")])
     (entry,) = sel.tried
     assert entry["decision"] == "cannot test"
