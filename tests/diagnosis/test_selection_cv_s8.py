@@ -202,4 +202,8 @@ def test_cross_validation_does_not_name_a_saturation_forced_to_its_limit(monkeyp
     assert [e["effect"] for e in rep.effects] == ["mass_mismatch"]
     (sat,) = [e for e in rep.data["tried"] if e["effect"] == "tire_saturation"
               and e["channel"] == "rear_axle"]
-    assert sat["decision"] == "not confirmed" and "plausibility limit" in sat["reason"]
+    # since s8-veh (slip angles and speed-scheduled instruments; a displaced stand-in) the
+    # saturation is already refused in its round ("rejected"), before the final refit that
+    # the limit rule guards; either way it is refused for sitting on its limit
+    assert sat["decision"] in ("rejected", "not confirmed")
+    assert "plausibility limit" in sat["reason"]
