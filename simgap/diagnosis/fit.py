@@ -1699,8 +1699,8 @@ class Fitter:
           input over the recording's valid rows (the input's excitation, not the split's),
           as the fit reads it (through the equation's filter) against the error the fit
           leaves there per independent row (:meth:`_excitation_floor`).
-        * A lag of the input (a nonlinear parameter in seconds acting on the input: an
-          input delay) when the position columns were low-passed before logging
+        * A lag of the input (``latency``: an input delay, a steering lag) when the
+          position or state columns were low-passed before logging
           (:meth:`_low_passed_motion`): a sensor filter's lag and an actuator delay are
           the same function of the data; the latency is fitted, not named.
         * An effect with ``confusable_with`` partners at the same channel (a dead zone
@@ -2139,9 +2139,8 @@ def _p_of(entry: dict[str, Any]) -> float:
 
 
 def _input_lag(effect: Any) -> bool:
-    """Whether an effect is a time lag of the input (acts on the input, a parameter in s)."""
-    return bool(getattr(effect, "on_input", False)) and "s" in tuple(
-        getattr(effect, "nl_units", ()))
+    """Whether an effect delays the logged input's action (``FitSpec.latency``)."""
+    return bool(getattr(effect, "latency", False))
 
 
 def _ratio_text(fit: FitResult, term: Term) -> str:

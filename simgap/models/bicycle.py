@@ -643,7 +643,7 @@ VOCABULARY = (
                params=(Param(name="tau", unit="s", bounds=_NONNEG, inject=(0.04, 0.15)),),
                write=_value("steering_lag", "tau"), needs=("tire_saturation",),
                fit=FitSpec(scope="axle", nl=("tau",), nl_units=("s",), nl_bounds=((1e-3, 0.5),),
-                           nl_grid=((0.02, 0.05, 0.1, 0.3),), nl_vanishes=("low",),
+                           nl_grid=((0.02, 0.05, 0.1, 0.3),), nl_vanishes=("low",), latency=True,
                            fn=_fit_steer_lag,
                            for_data=_steering_lag_for_data)),
     EffectSpec(name="tire_relaxation", label="tire relaxation", scope="channel",

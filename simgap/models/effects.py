@@ -94,6 +94,11 @@ class FitSpec:
         on_input: the effect changes the input that acts (a delay, a dead zone), not the
             dynamics: a simulation applies it to the input (``input_map``) instead of adding
             its contribution.
+        latency: the effect delays the action of the logged input (a transport delay, a
+            first-order lag; its nonlinear coordinate in seconds). A low-pass filter on the
+            logged motion delays it behind the logged input in the same way, so where the
+            motion columns were low-passed before logging the diagnosis fits it and states
+            the latency, but does not name it.
         input_map: ``input_map(nl, t, u) -> u_acting`` for an ``on_input`` effect: the input
             that acts on the channel, from the channel's held input ``u`` on the time grid
             ``t`` (s) and the nonlinear coordinates ``nl``.
@@ -149,6 +154,7 @@ class FitSpec:
     generalizes: tuple[str, ...] = ()
     generic: bool = True
     on_input: bool = False
+    latency: bool = False
     corrects: tuple[tuple[str, str], ...] = ()
     symmetric_with: tuple[str, ...] = ()
     confusable_with: tuple[str, ...] = ()

@@ -903,8 +903,8 @@ VOCABULARY = (
                            # the arm and MJCF models; on the real EMPS pulse set a generic
                            # delay was named beside the published friction (it may stand in
                            # for the structural flexibility there), so not yet for any model
-                           on_input=True, input_map=_delay_input, generic=False,
-                           fn=_fit_delay)),
+                           on_input=True, latency=True, input_map=_delay_input,
+                           generic=False, fn=_fit_delay)),
     EffectSpec(name="dead_zone", label="actuator dead zone", scope="channel",
                params=(Param(name="d", unit="{effort}", bounds=_NONNEG, inject=(0.1, 0.3)),),
                write=_set("dead_zone", "d"),

@@ -1,9 +1,11 @@
 """Held-out vehicle variants (``benchmarks/diagnosis_vehicle_variants.py``, issue 13 s8).
 
 Quick: one effect and one clean log on a few variants the diagnosis was never tuned on.
-SIMGAP_SLOW=1: every vocabulary effect × 2 seeds and 5 clean logs per variant; the
-low-passed yaw-rate column is a known failure (a 10 Hz upstream filter reads as a steering
-lag of ≈ 25 ms, also on clean logs: ``benchmarks/results/diagnosis_s8-veh_causes.md``).
+SIMGAP_SLOW=1: every vocabulary effect × 2 seeds and 5 clean logs per variant. On the
+low-passed yaw-rate column a 10 Hz upstream filter delays r by ≈ 25 ms, which a steering lag
+would do too: it was named on clean logs (``benchmarks/results/diagnosis_s8-veh_causes.md``);
+now the latency is stated and not named (``FitSpec.latency``), so a true steering lag is not
+named there either, and the mass ratio is still missed (an expected failure).
 """
 
 from __future__ import annotations
@@ -54,9 +56,23 @@ def test_a_clean_held_out_variant_names_nothing(variant: str) -> None:
     assert out["found"] == [], out
 
 
+def test_an_upstream_low_pass_of_the_yaw_rate_is_no_steering_lag() -> None:
+    """A 10 Hz filter on r delays the logged motion by ≈ 25 ms, as a steering lag would: a
+    clean log named a steering lag of that size (s8-veh). The error model sees the filter
+    (r's upper half band is not white), so the latency is fitted and stated, not named."""
+    from simgap.diagnosis.pipeline import diagnose
+    rep = diagnose(V.recording("imu_lowpass", [], 100), "bicycle")
+    assert rep.effects == []
+    (lag,) = [e for e in rep.data["tried"] if e["effect"] == "steering_lag"
+              and e["decision"] == "not identifiable"]
+    assert "r was low-passed before logging" in lag["reason"]
+    assert 0.015 < float(lag["reason"].split("(")[1].split(" s)")[0]) < 0.04
+
+
 @pytest.mark.skipif(not SLOW, reason="slow: set SIMGAP_SLOW=1")
 @pytest.mark.parametrize("variant", [pytest.param(v, marks=pytest.mark.xfail(
-    strict=True, reason="an upstream low-pass of r reads as a steering lag"))
+    strict=True, reason="r low-passed upstream: a steering lag cannot be told from the "
+    "filter's lag (not named, by design) and the mass ratio is missed"))
     if v == "imu_lowpass" else v for v in V.VARIANTS])
 def test_every_effect_on_every_variant(variant: str) -> None:
     res = V.run([variant], list(V.EFFECTS), 2, 5)
