@@ -1,4 +1,4 @@
-"""Shared ending of the diagnosis benchmarks: machine facts, JSON to stdout and a file."""
+"""Shared parts of the diagnosis benchmarks: clean-log counts, machine facts, JSON output."""
 
 from __future__ import annotations
 
@@ -16,3 +16,10 @@ def emit(res: dict[str, Any], out: Path | None) -> None:
     if out:
         out.write_text(text + "\n", encoding="utf-8")
     print(text)
+
+
+def clean_counts(clean: list[dict[str, Any]]) -> dict[str, int]:
+    """Counts over diagnosed clean logs: how many, with effects named, with a mismatch flagged."""
+    return {"clean": len(clean),
+            "clean_with_named_effects": sum(bool(r.get("found")) for r in clean),
+            "clean_flagged_mismatch": sum(bool(r.get("significant")) for r in clean)}

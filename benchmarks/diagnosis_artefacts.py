@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _results import clean_counts
 
 from simgap.diagnosis.artefacts import ARTEFACTS
 from simgap.diagnosis.generate import generate
@@ -142,9 +143,7 @@ def summarise(rows: list[dict], clean: list[dict], arts: list[str]) -> dict[str,
         cl = [r for r in clean if r["artefact"] == art]
         summary[art] = {"cases": len(mine), "named_within_tolerance": len(ok),
                         "named_with_extra_effects": sum(bool(r.get("extra")) for r in mine),
-                        "errors": sum("error" in r for r in mine), "clean": len(cl),
-                        "clean_with_named_effects": sum(bool(r.get("found")) for r in cl),
-                        "clean_flagged_mismatch": sum(bool(r.get("significant")) for r in cl)}
+                        "errors": sum("error" in r for r in mine), **clean_counts(cl)}
         if oov:
             summary[art].update(
                 oov_cases=len(oov), oov_located_unexplained=sum(bool(r.get("oov_ok"))

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _results import clean_counts
 from scipy.signal import butter, lfilter
 
 from simgap.diagnosis import artefacts as art
@@ -265,9 +266,7 @@ def summarise(rows: list[dict], clean: list[dict]) -> dict[str, dict]:
                                                    for r in mine),
                      "wrong_effect_named": sum(bool(r.get("wrong")) for r in mine),
                      "named_with_extra_effects": sum(bool(r.get("extra")) for r in mine),
-                     "errors": sum("error" in r for r in mine + cl), "clean": len(cl),
-                     "clean_with_named_effects": sum(bool(r.get("found")) for r in cl),
-                     "clean_flagged_mismatch": sum(bool(r.get("significant")) for r in cl)}
+                     "errors": sum("error" in r for r in mine + cl), **clean_counts(cl)}
     return out
 
 
