@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -23,3 +25,22 @@ def clean_counts(clean: list[dict[str, Any]]) -> dict[str, int]:
     return {"clean": len(clean),
             "clean_with_named_effects": sum(bool(r.get("found")) for r in clean),
             "clean_flagged_mismatch": sum(bool(r.get("significant")) for r in clean)}
+
+
+def markdown_table(first: str, columns: list[tuple[str, str]],
+                   summary: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """Lines of a Markdown table: one row per ``summary`` key, one column per (title, key)."""
+    lines = [f"| {first} | " + " | ".join(t for t, _ in columns) + " |",
+             "|" + "---|" * (len(columns) + 1)]
+    lines += [f"| {k} | " + " | ".join(str(s[c]) for _, c in columns) + " |"
+              for k, s in summary.items()]
+    return lines
+
+
+def write_table(out: dict[str, Any], table: str, path: Path | None) -> None:
+    """A table benchmark's ending: Markdown on stderr, JSON on stdout and to ``path``."""
+    print(table, file=sys.stderr)
+    text = json.dumps(out, indent=1, default=float)
+    if path is not None:
+        path.write_text(text)
+    print(text)

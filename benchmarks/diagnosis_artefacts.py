@@ -25,13 +25,12 @@ passes.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from _results import clean_counts
+from _results import clean_counts, markdown_table, write_table
 
 from simgap.diagnosis.artefacts import ARTEFACTS
 from simgap.diagnosis.generate import generate
@@ -154,13 +153,11 @@ def summarise(rows: list[dict], clean: list[dict], arts: list[str]) -> dict[str,
 
 def markdown(summary: dict[str, dict]) -> str:
     """The summary as a Markdown table."""
-    lines = ["| artefact | cases | named within tolerance | with extra effects | errors | "
-             "clean | clean with named effects | clean flagged as mismatch |",
-             "|---|---|---|---|---|---|---|---|"]
-    for art, s in summary.items():
-        lines.append(f"| {art} | {s['cases']} | {s['named_within_tolerance']} | "
-                     f"{s['named_with_extra_effects']} | {s['errors']} | {s['clean']} | "
-                     f"{s['clean_with_named_effects']} | {s['clean_flagged_mismatch']} |")
+    lines = markdown_table("artefact", [
+        ("cases", "cases"), ("named within tolerance", "named_within_tolerance"),
+        ("with extra effects", "named_with_extra_effects"), ("errors", "errors"),
+        ("clean", "clean"), ("clean with named effects", "clean_with_named_effects"),
+        ("clean flagged as mismatch", "clean_flagged_mismatch")], summary)
     oov = {a: s for a, s in summary.items() if "oov_cases" in s}
     if oov:
         lines += ["", f"| artefact | out-of-vocabulary cases | located, no named effect "
@@ -219,11 +216,7 @@ def main() -> None:
     summary = summarise(rows, clean, arts)
     out = {"seeds": args.seeds, "tolerance": TOLERANCE, "summary": summary, "rows": rows,
            "clean": clean, "seconds": time.perf_counter() - t0}
-    print(markdown(summary), file=sys.stderr)
-    text = json.dumps(out, indent=1, default=float)
-    if args.out is not None:
-        args.out.write_text(text)
-    print(text)
+    write_table(out, markdown(summary), args.out)
 
 
 if __name__ == "__main__":

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import sys
 import time
@@ -40,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _results import clean_counts
+from _results import clean_counts, markdown_table, write_table
 from scipy.signal import butter, lfilter
 
 from simgap.diagnosis import artefacts as art
@@ -272,15 +271,12 @@ def summarise(rows: list[dict], clean: list[dict]) -> dict[str, dict]:
 
 def markdown(summary: Mapping[str, Mapping[str, int]]) -> str:
     """The summary as a Markdown table."""
-    lines = ["| variant | cases | ok | within tolerance | wrong effect named | with extra "
-             "effects | errors | clean | clean with named effects | clean flagged |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for k, s in summary.items():
-        lines.append(f"| {k} | {s['cases']} | {s['ok']} | {s['named_within_tolerance']} | "
-                     f"{s['wrong_effect_named']} | {s['named_with_extra_effects']} | "
-                     f"{s['errors']} | {s['clean']} | "
-                     f"{s['clean_with_named_effects']} | {s['clean_flagged_mismatch']} |")
-    return "\n".join(lines)
+    return "\n".join(markdown_table("variant", [
+        ("cases", "cases"), ("ok", "ok"), ("within tolerance", "named_within_tolerance"),
+        ("wrong effect named", "wrong_effect_named"),
+        ("with extra effects", "named_with_extra_effects"), ("errors", "errors"),
+        ("clean", "clean"), ("clean with named effects", "clean_with_named_effects"),
+        ("clean flagged", "clean_flagged_mismatch")], summary))
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -328,11 +324,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     out = {"variants": {k: VARIANTS[k].description for k in variants}, "effects": effects,
            "seeds": args.seeds, "tolerance": TOLERANCE, "summary": summary, "rows": rows,
            "clean": clean, "seconds": time.perf_counter() - t0}
-    print(markdown(summary), file=sys.stderr)
-    text = json.dumps(out, indent=1, default=float)
-    if args.out is not None:
-        args.out.write_text(text)
-    print(text)
+    write_table(out, markdown(summary), args.out)
     return out
 
 
