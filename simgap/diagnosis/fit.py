@@ -869,6 +869,11 @@ class Fitter:
         return (f" (were it real at its fitted size, it would give a statistic of "
                 f"{power.expected:.3g} there, below the {power.critical:.3g} the test needs)")
 
+    @property
+    def _cv(self) -> bool:
+        """Whether the selection's tests read K-fold errors (the option, and folds exist)."""
+        return self.cross_validate and len(self.split.fold) > 0
+
     def _selection_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(held-out, training) rows of the selection's tests.
 
@@ -876,7 +881,7 @@ class Fitter:
         held out once, :meth:`cv_errors`) the fit part is both, so that a term's held-out
         information equals its training information.
         """
-        if self.cross_validate and len(self.split.fold):
+        if self._cv:
             return self.fit_rows, self.fit_rows
         return self.valid, self.train
 
@@ -1006,7 +1011,7 @@ class Fitter:
         sel = Selection(fit=current)
         remaining = list(candidates)
         tried: dict[tuple, dict[str, Any]] = {}
-        cv = self.cross_validate and len(self.split.fold) > 0
+        cv = self._cv
         while remaining and len(current.terms) < MAX_EFFECTS:
             hyps = self.hypotheses(remaining)
             # each trial fit is reduced at once to what the tests read (its parameters and
@@ -1207,11 +1212,7 @@ class Fitter:
             text = (f"made unnecessary by {'+'.join(u.label for u in hyp)}: fitted beside it, "
                     f"{t.effect.label} at {t.channel} went to the bound where it is the "
                     "nominal")
-            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
-                                                "params": _params(current, i), "gain": 0.0,
-                                                "test": TEST_NAME, "statistic": None,
-                                                "p_value": None})
-            entry.update(decision="removed", reason=text)
+            _decide(tried, t, "removed", text, _params(current, i))
             self._forget(sel, t)
             self.combinations.pop(t.key, None)
             sel.history.append({"term": t.label, "removed": True})
@@ -1339,7 +1340,7 @@ class Fitter:
         amplitudes at the end of a free decay; those are listed in :attr:`untestable`.
         """
         terms, nls = list(current.terms), list(current.nl)
-        cv = self.cross_validate and len(self.split.fold) > 0
+        cv = self._cv
         while True:
             final = self.fit(terms, nls, rows=self.fit_rows, full=False)
             if not terms:
@@ -1354,10 +1355,7 @@ class Fitter:
                         f"whole fit part with the other effects, a parameter sits on its "
                         f"plausibility limit ({_ratio_text(final, t)}): forced onto data it "
                         "does not describe")
-                tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
-                                            "gain": 0.0, "test": TEST_NAME,
-                                            "statistic": None, "p_value": None})
-                tried[(t.key,)].update(decision="not confirmed", reason=text)
+                _decide(tried, t, "not confirmed", text)
                 self._forget(sel, t)
                 sel.history.append({"term": t.label, "removed": True, "part": "fit",
                                     "at_limit": True})
@@ -1520,7 +1518,7 @@ class Fitter:
         while len(current.terms) > 1:
             alpha = ALPHA / len(current.terms)
             worst = None     # max over (p, -share) as max() picks it: the first of equals
-            cv = self.cross_validate and len(self.split.fold) > 0
+            cv = self._cv
             mine = self.cv_errors(current.terms, current.nl) if cv else \
                 self._errors(current, self.valid)
             for i in range(len(current.terms)):
@@ -1625,12 +1623,7 @@ class Fitter:
                 f"unchanged) and explain the held-out data as well (p = {p:.2g} for the "
                 "larger set's gain): the simplest description is named")
         for t in gone:
-            entry = tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
-                                                "params": _params(current,
-                                                                  current.terms.index(t)),
-                                                "gain": 0.0, "test": TEST_NAME,
-                                                "statistic": None, "p_value": None})
-            entry.update(decision="removed", reason=text)
+            _decide(tried, t, "removed", text, _params(current, current.terms.index(t)))
             self._forget(sel, t)
             sel.history.append({"term": t.label, "removed": True, "p_value": float(p)})
         if added:
@@ -1941,7 +1934,7 @@ class Fitter:
         cross-validation errors on the fit part: the comparison the selection's tests made.
         """
         best, best_sse = None, np.inf
-        cv = self.cross_validate and len(self.split.fold) > 0
+        cv = self._cv
         if not cv:
             e_train = self._errors(without, self.train)
             e_valid = self._errors(without, self.valid)
@@ -2083,10 +2076,7 @@ class Fitter:
                     + (f"; {', '.join(kept)} carr{'ies' if len(kept) == 1 else 'y'} the "
                        "identifiable part" if kept else "") + ".")
             found.append(combo.describe())
-            tried.setdefault((t.key,), {"effect": t.effect.name, "channel": t.channel,
-                                     "params": _params(current, i), "gain": 0.0,
-                                     "test": TEST_NAME, "statistic": None, "p_value": None})
-            tried[(t.key,)].update(decision="not identifiable", reason=text)
+            _decide(tried, t, "not identifiable", text, _params(current, i))
             self._forget(sel, t)
             sel.warnings.append({"effects": [t.effect.name], "channels": [t.channel],
                                  "text": text})
@@ -2136,6 +2126,21 @@ class Fitter:
 def _p_of(entry: dict[str, Any]) -> float:
     """The p-value of a ``tried`` entry as a float."""
     return float(entry["p_value"])
+
+
+def _decide(tried: dict, term: Term, decision: str, reason: str,
+            params: dict[str, float] | None = None) -> dict[str, Any]:
+    """Record a decision on ``term`` taken outside a selection round (its entry in ``tried``).
+
+    A term never tried on its own gets an entry with no test statistic (gain 0; ``params``
+    where given); an existing entry keeps its numbers. Returns the entry.
+    """
+    entry = tried.setdefault((term.key,), {
+        "effect": term.effect.name, "channel": term.channel,
+        **({} if params is None else {"params": params}), "gain": 0.0, "test": TEST_NAME,
+        "statistic": None, "p_value": None})
+    entry.update(decision=decision, reason=reason)
+    return entry
 
 
 def _input_lag(effect: Any) -> bool:

@@ -756,9 +756,10 @@ class MechanicalSystem:
 
         A logged input held on its saturation level (:func:`.errormodel.clipped`) is not
         the input that acted while the true one exceeded the limit: the residual there is
-        the clip, no effect. Every row whose filter window (one window wide, per segment)
-        touches such a sample is left out of fitting and scoring for that channel, and the
-        report says so. Built-in arm only (one input column per channel).
+        the clip, no effect. Every row whose filter window (one window wide, across gaps
+        too: a little more is left out there, never less) touches such a sample is left
+        out of fitting and scoring for that channel, and the report says so. Built-in arm
+        only (one input column per channel).
         """
         c = self.columns
         n = len(next(iter(raw.values())))
