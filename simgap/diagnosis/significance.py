@@ -346,18 +346,7 @@ def effective_tests(directions: Sequence[np.ndarray | None]) -> float:
     if len(vecs) <= 1:
         return float(len(vecs) + lone)
     # pairwise, in double precision, two directions at a time (no stacked copy of them all)
-    def centred(v: np.ndarray) -> np.ndarray:
-        c = np.asarray(v, dtype=np.float64)
-        return c - float(np.mean(c))
-
-    n = len(vecs)
-    corr = np.eye(n)
-    for i in range(n):
-        a = centred(vecs[i])
-        na = float(np.sqrt(a @ a))
-        for j in range(i + 1, n):
-            b = centred(vecs[j])
-            corr[i, j] = corr[j, i] = float(a @ b) / (na * float(np.sqrt(b @ b)))
+    corr = np.corrcoef(np.stack([np.asarray(v, dtype=np.float64) for v in vecs]))
     lam = np.clip(np.linalg.eigvalsh(corr), 0.0, None)
     m_eff = float(np.sum(np.sqrt(lam)) ** 2 / np.sum(lam))
     return float(min(max(m_eff, 1.0), len(vecs))) + lone

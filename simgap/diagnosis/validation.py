@@ -207,7 +207,8 @@ def fit_folds(rest: np.ndarray, chosen: np.ndarray) -> dict[int, int]:
     Returns:
         block label -> fold.
     """
-    others = [int(b) for b in rest if b not in set(np.asarray(chosen).tolist())]
+    held = set(np.asarray(chosen).tolist())
+    others = [int(b) for b in rest if b not in held]
     k = max(1, int(round(len(others) / max(len(chosen), 1))))
     out = {int(b): 0 for b in chosen}
     out.update({b: 1 + i % k for i, b in enumerate(others)})
