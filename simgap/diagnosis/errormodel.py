@@ -123,11 +123,15 @@ class ColumnErrorModel:
     hf_excess: float = 1.0
 
     @property
+    def quantisation_dominant(self) -> bool:
+        """The quantisation step's error q/√12 dominates the white noise: a staircase."""
+        return bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
+            self.white_std
+
+    @property
     def filtered_upstream(self) -> bool:
         """Heavy tails with the high frequencies gone: filtered upstream (not quantisation)."""
-        dominant = bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
-            self.white_std
-        return bool(self.heavy_tailed and not dominant
+        return bool(self.heavy_tailed and not self.quantisation_dominant
                     and (self.flatness < FLATNESS_WHITE or self.hf_excess > HF_EXCESS))
 
     @property
@@ -141,9 +145,7 @@ class ColumnErrorModel:
         the filter's group delay. Not judged on a quantised staircase (its flatness says
         nothing about a filter).
         """
-        dominant = bool(self.quantum) and self.quantum / np.sqrt(12.0) > QUANT_DOMINANT * \
-            self.white_std
-        return bool(not dominant and self.flatness < FLATNESS_WHITE)
+        return bool(not self.quantisation_dominant and self.flatness < FLATNESS_WHITE)
 
     @property
     def floor_std(self) -> float:

@@ -171,11 +171,6 @@ class _Plan:
     hold: float = 0.5
 
 
-def _quantised(m: Any) -> bool:
-    """Whether a column's error model is dominated by its quantisation (floor q/√12)."""
-    return bool(m.quantum) and any("quantised" in n for n in m.notes)
-
-
 #: Quantile intervals per state variable of the nuisance model the input's lag is fitted
 #: beside (a continuous piecewise-linear function of each variable).
 LAG_NUISANCE_BINS = 16
@@ -799,7 +794,7 @@ class MechanicalSystem:
             # not when it too is heavy-tailed or low-passed (a 10 Hz Butterworth angle lags
             # more and smears a friction reversal more than a drive's moving-average dq)
             if v in done or models[p].low_passed or (models[p].heavy_tailed
-                                                     and not _quantised(models[p])):
+                                                     and not models[p].quantisation_dominant):
                 continue
             lag, se = velocity_lag(raw[p], raw[v], grid.dt, grid.segment)
             if abs(lag) > LAG_Z * se:
@@ -829,8 +824,8 @@ class MechanicalSystem:
             # A heavy-tailed velocity whose high frequencies are still white (kinks of the
             # signal at a coarse rate: friction reversals, torque steps) is kept too.
             bad = [(v, p) for v, p in zip(c.dq, c.q, strict=True)
-                   if (models[v].filtered_upstream or _quantised(models[v]))
-                   and not (models[p].heavy_tailed and not _quantised(models[p]))]
+                   if (models[v].filtered_upstream or models[v].quantisation_dominant)
+                   and not (models[p].heavy_tailed and not models[p].quantisation_dominant)]
             lagged = self._lagged_velocities(raw, grid, models, bad)
             if lagged:
                 from_q = True
@@ -838,7 +833,7 @@ class MechanicalSystem:
             if bad:
                 from_q = True
                 warn += [(f"{v} is quantised (step {models[v].quantum:.4g}, a finite "
-                          "difference?)" if _quantised(models[v]) else
+                          "difference?)" if models[v].quantisation_dominant else
                           f"{v} looks filtered upstream (kurtosis of its third differences "
                           f"{models[v].kurtosis:.3g}, white noise gives 3)") +
                          f"; differentiating {p} instead" for v, p in bad]
@@ -846,7 +841,7 @@ class MechanicalSystem:
         if from_q and c.dq:  # a replaced column: its one line says so, not its model's note
             warn = [w for w in warn if not any(w in models[v].notes for v in c.dq
                                                if models[v].filtered_upstream
-                                               or _quantised(models[v]))]
+                                               or models[v].quantisation_dominant)]
         if not self.is_manipulator:  # MuJoCo/user models: main's estimate until re-validated
             noise = {k: noise_std(v) for k, v in raw.items()}
         plan, pre, vel_noise = self._plan(raw, dt, bounds, noise, from_q)
@@ -858,7 +853,7 @@ class MechanicalSystem:
         res = self._residual(sig, kernel)
         # a quantised angle's rounding error is propagated as a staircase, not as white noise
         quant = {k: (models[k].quantum, sig["q"][:, j]) for j, k in enumerate(c.q)
-                 if self.is_manipulator and _quantised(models[k])}
+                 if self.is_manipulator and models[k].quantisation_dominant}
         white = {k: (models[k].white_std if k in quant else v) for k, v in noise.items()}
         floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
                             quantised=quant)
@@ -881,7 +876,7 @@ class MechanicalSystem:
                     sig = self._signals(raw, plan)
                     res = self._residual(sig, kernel)
                     quant = {k: (models[k].quantum, sig["q"][:, j]) for j, k in enumerate(c.q)
-                             if self.is_manipulator and _quantised(models[k])}
+                             if self.is_manipulator and models[k].quantisation_dominant}
                     floor = noise_floor(raw, white, lambda r: self.residual_of(r, plan), res,
                                         quantised=quant)
         model_rms = np.sqrt(np.mean(self.inverse_dynamics(sig["q"], sig["dq"], sig["ddq"]) ** 2,
